@@ -1,0 +1,469 @@
+"""Contacts with rigid bodies: bristle capsules against body triangle meshes (closest points
+in the body frame, triangles found through each body's uniform grid) or against exact
+spheres, and sphere bodies against other bodies.
+
+One contact per (segment, body) pair: the closest triangle wins, so a capsule touching a
+shared edge or vertex is not counted twice, and the tangential history is kept per
+(segment, body) across triangle changes. As for bristle-bristle contacts, a contact exactly at
+the joint between two segments of one bristle is counted by the segment after the joint.
+"""
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from .bodies import FIXED, KINEMATIC
+from .bonds import PARALLEL_MIN
+from .contact_law import contact_force, normal_stiffness
+from .contacts import add_segment_force
+from .geometry import point_triangle_closest, segment_point_closest, segment_triangle_closest
+from .rotations import qrot, qrot_inv
+
+
+@njit(cache=True)
+def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b):
+    """(segment, body) pairs whose bounding spheres are closer than ``skin``, sorted by
+    (segment, body). Segments of a brush mounted on a body never touch that body."""
+    ns = mid.shape[0]
+    nk = pos.shape[0]
+    cap = out_s.shape[0]
+    n = 0
+    for s in range(ns):
+        for k in range(nk):
+            if not collide[k] or seg_mount[s] == k:
+                continue
+            dx = mid[s, 0] - pos[k, 0]
+            dy = mid[s, 1] - pos[k, 1]
+            dz = mid[s, 2] - pos[k, 2]
+            lim = bound[s] + bound_r[k] + skin
+            if dx * dx + dy * dy + dz * dz < lim * lim:
+                if n < cap:
+                    out_s[n] = s
+                    out_b[n] = k
+                n += 1
+    return n
+
+
+@njit(cache=True)
+def carry_body_history(old_s, old_b, old_ft, n_old, new_s, new_b, new_ft, n_new, nk):
+    i = 0
+    for c in range(n_new):
+        key = new_s[c] * nk + new_b[c]
+        while i < n_old and old_s[i] * nk + old_b[i] < key:
+            i += 1
+        if i < n_old and old_s[i] * nk + old_b[i] == key:
+            new_ft[c, 0] = old_ft[i, 0]
+            new_ft[c, 1] = old_ft[i, 1]
+            new_ft[c, 2] = old_ft[i, 2]
+        else:
+            new_ft[c, 0] = 0.0
+            new_ft[c, 1] = 0.0
+            new_ft[c, 2] = 0.0
+
+
+@njit(cache=True)
+def closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin, grid_cell, grid_dims,
+                     grid_base, grid_start, grid_tris):
+    """Closest triangle of body k to the segment l0-l1 (body frame) among the grid cells its
+    box (inflated by rmax) overlaps. Returns (tri, s, u, v, w, dist); tri = -1 if none."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    best = -1
+    bs = 0.0
+    bu = 0.0
+    bv = 0.0
+    bw = 0.0
+    bd = 1e300
+    c_lo0 = int(math.floor((min(l0[0], l1[0]) - rmax - lo[0]) / cell))
+    c_lo1 = int(math.floor((min(l0[1], l1[1]) - rmax - lo[1]) / cell))
+    c_lo2 = int(math.floor((min(l0[2], l1[2]) - rmax - lo[2]) / cell))
+    c_hi0 = int(math.floor((max(l0[0], l1[0]) + rmax - lo[0]) / cell))
+    c_hi1 = int(math.floor((max(l0[1], l1[1]) + rmax - lo[1]) / cell))
+    c_hi2 = int(math.floor((max(l0[2], l1[2]) + rmax - lo[2]) / cell))
+    d0 = grid_dims[k, 0]
+    d1 = grid_dims[k, 1]
+    d2 = grid_dims[k, 2]
+    c_lo0 = max(c_lo0, 0)
+    c_lo1 = max(c_lo1, 0)
+    c_lo2 = max(c_lo2, 0)
+    c_hi0 = min(c_hi0, d0 - 1)
+    c_hi1 = min(c_hi1, d1 - 1)
+    c_hi2 = min(c_hi2, d2 - 1)
+    for e0 in range(c_lo0, c_hi0 + 1):
+        for e1 in range(c_lo1, c_hi1 + 1):
+            for e2 in range(c_lo2, c_hi2 + 1):
+                cc = grid_base[k] + (e0 * d1 + e1) * d2 + e2
+                for idx in range(grid_start[cc], grid_start[cc + 1]):
+                    tri = grid_tris[idx]
+                    s, u, v, w, d = segment_triangle_closest(
+                        l0, l1, verts[tris[tri, 0]], verts[tris[tri, 1]], verts[tris[tri, 2]])
+                    if d < bd:
+                        bd = d
+                        best = tri
+                        bs = s
+                        bu = u
+                        bv = v
+                        bw = w
+    return best, bs, bu, bv, bw, bd
+
+
+@njit(cache=True, parallel=True)
+def bristle_body_narrow(x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
+                        cs, cb, n_cand, ft, friction, local,
+                        bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
+                        verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                        grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                        active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
+    """Capsule-body contacts of the first ``n_cand`` candidates; ``fc`` is the force on the
+    segment (the body gets ``-fc`` at ``cp``). ``local`` is (capacity, 2, 3) scratch."""
+    if n_cand >= PARALLEL_MIN:
+        for c in prange(n_cand):
+            _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, cs, cb, n_cand, ft, friction, local, bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material, verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+    else:
+        for c in range(n_cand):
+            _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, cs, cb, n_cand, ft, friction, local, bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material, verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+
+
+
+@njit(cache=True)
+def _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
+                        cs, cb, n_cand, ft, friction, local,
+                        bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
+                        verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                        grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                        active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
+    sg = cs[c]
+    k = cb[c]
+    i0 = bi[sg]
+    i1 = bj[sg]
+    active[c] = 0
+    qw = bq[k, 0]
+    qx = bq[k, 1]
+    qy = bq[k, 2]
+    qz = bq[k, 3]
+    if sphere_r[k] > 0.0:
+        s = segment_point_closest(x[i0], x[i1], bpos[k])
+        if s >= 1.0 and seg_has_next[sg]:
+            if friction:
+                ft[c, 0] = 0.0
+                ft[c, 1] = 0.0
+                ft[c, 2] = 0.0
+            return
+        px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
+        py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
+        pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
+        r = rad[i0] + s * (rad[i1] - rad[i0])
+        dx = px - bpos[k, 0]
+        dy = py - bpos[k, 1]
+        dz = pz - bpos[k, 2]
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        ov = r + sphere_r[k] - d
+        if ov <= 0.0:
+            if friction:
+                ft[c, 0] = 0.0
+                ft[c, 1] = 0.0
+                ft[c, 2] = 0.0
+            return
+        if d > 1e-12 * sphere_r[k]:
+            nx = dx / d
+            ny = dy / d
+            nz = dz / d
+        else:
+            nx, ny, nz = 0.0, 0.0, 1.0
+        hcp = r - 0.5 * ov
+        cx = px - nx * hcp
+        cy = py - ny * hcp
+        cz = pz - nz * hcp
+    else:
+        l0 = local[c, 0]
+        l1 = local[c, 1]
+        l0[0], l0[1], l0[2] = qrot_inv(qw, qx, qy, qz, x[i0, 0] - bpos[k, 0],
+                                       x[i0, 1] - bpos[k, 1], x[i0, 2] - bpos[k, 2])
+        l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - bpos[k, 0],
+                                       x[i1, 1] - bpos[k, 1], x[i1, 2] - bpos[k, 2])
+        rmax = max(rad[i0], rad[i1])
+        tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin,
+                                                grid_cell, grid_dims, grid_base,
+                                                grid_start, grid_tris)
+        if tri < 0 or (s >= 1.0 and seg_has_next[sg]):
+            if friction:
+                ft[c, 0] = 0.0
+                ft[c, 1] = 0.0
+                ft[c, 2] = 0.0
+            return
+        r = rad[i0] + s * (rad[i1] - rad[i0])
+        psx = l0[0] + s * (l1[0] - l0[0])
+        psy = l0[1] + s * (l1[1] - l0[1])
+        psz = l0[2] + s * (l1[2] - l0[2])
+        a = verts[tris[tri, 0]]
+        b = verts[tris[tri, 1]]
+        cc = verts[tris[tri, 2]]
+        ptx = u * a[0] + vv * b[0] + ww * cc[0]
+        pty = u * a[1] + vv * b[1] + ww * cc[1]
+        ptz = u * a[2] + vv * b[2] + ww * cc[2]
+        gx = psx - ptx
+        gy = psy - pty
+        gz = psz - ptz
+        fnx = tnormal[tri, 0]
+        fny = tnormal[tri, 1]
+        fnz = tnormal[tri, 2]
+        side = gx * fnx + gy * fny + gz * fnz
+        if watertight[k] and side < 0.0:
+            # the axis point lies inside a closed body: push it out along the face normal
+            ov = r + d
+            nlx, nly, nlz = fnx, fny, fnz
+        else:
+            ov = r - d
+            if ov <= 0.0:
+                if friction:
+                    ft[c, 0] = 0.0
+                    ft[c, 1] = 0.0
+                    ft[c, 2] = 0.0
+                return
+            if d > 1e-9 * r:
+                nlx = gx / d
+                nly = gy / d
+                nlz = gz / d
+            elif fnx * fnx + fny * fny + fnz * fnz > 0.0:
+                nlx, nly, nlz = fnx, fny, fnz
+            else:
+                nn = math.sqrt(psx * psx + psy * psy + psz * psz)
+                if nn > 0.0:
+                    nlx, nly, nlz = psx / nn, psy / nn, psz / nn
+                else:
+                    nlx, nly, nlz = 0.0, 0.0, 1.0
+        if ov <= 0.0:
+            return
+        # contact point: middle of the overlap, between the body surface and the capsule's
+        clx = ptx + 0.5 * (gx - nlx * r)
+        cly = pty + 0.5 * (gy - nly * r)
+        clz = ptz + 0.5 * (gz - nlz * r)
+        nx, ny, nz = qrot(qw, qx, qy, qz, nlx, nly, nlz)
+        cx, cy, cz = qrot(qw, qx, qy, qz, clx, cly, clz)
+        cx += bpos[k, 0]
+        cy += bpos[k, 1]
+        cz += bpos[k, 2]
+        px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
+        py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
+        pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
+    wx_ = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
+    wy_ = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
+    wz_ = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
+    vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + wy_ * (cz - pz) - wz_ * (cy - py)
+    vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + wz_ * (cx - px) - wx_ * (cz - pz)
+    vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wx_ * (cy - py) - wy_ * (cx - px)
+    rx = cx - bpos[k, 0]
+    ry = cy - bpos[k, 1]
+    rz = cz - bpos[k, 2]
+    vbx = bv[k, 0] + bw[k, 1] * rz - bw[k, 2] * ry
+    vby = bv[k, 1] + bw[k, 2] * rx - bw[k, 0] * rz
+    vbz = bv[k, 2] + bw[k, 0] * ry - bw[k, 1] * rx
+    ma = mass[i0] + s * (mass[i1] - mass[i0])
+    if motion[k] == FIXED or motion[k] == KINEMATIC:
+        meff = ma
+    else:
+        meff = ma * bmass[k] / (ma + bmass[k])
+    m1 = seg_material[sg]
+    m2 = body_material[k]
+    kn = normal_stiffness(E[m1], r, E[m2], r)
+    if friction:
+        f0 = ft[c, 0]
+        f1 = ft[c, 1]
+        f2 = ft[c, 2]
+    else:
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+    Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
+        nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
+        mu_table[m1, m2], zeta_table[m1, m2], meff, f0, f1, f2, friction, dt)
+    if friction:
+        ft[c, 0] = f0
+        ft[c, 1] = f1
+        ft[c, 2] = f2
+    active[c] = 1
+    fc[c, 0] = Fx
+    fc[c, 1] = Fy
+    fc[c, 2] = Fz
+    cp[c, 0] = cx
+    cp[c, 1] = cy
+    cp[c, 2] = cz
+    par_s[c] = s
+    energy[c] = sto
+    diss[c] = dis
+    overlap_ratio[c] = ov / r
+
+
+@njit(cache=True)
+def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s, energy, diss,
+                         overlap_ratio, bpos, bf, btq, stats):
+    """Add candidate forces to nodes and bodies (serial). ``stats`` gets [count, stored,
+    dissipated, max overlap ratio, candidate index of the max]."""
+    count = 0
+    e_sto = 0.0
+    e_dis = 0.0
+    worst = 0.0
+    worst_c = -1
+    for c in range(n_cand):
+        if active[c] == 0:
+            continue
+        sg = cs[c]
+        k = cb[c]
+        count += 1
+        Fx = fc[c, 0]
+        Fy = fc[c, 1]
+        Fz = fc[c, 2]
+        add_segment_force(x, f, t, bi[sg], bj[sg], par_s[c], Fx, Fy, Fz, cp[c, 0], cp[c, 1],
+                          cp[c, 2])
+        rx = cp[c, 0] - bpos[k, 0]
+        ry = cp[c, 1] - bpos[k, 1]
+        rz = cp[c, 2] - bpos[k, 2]
+        bf[k, 0] -= Fx
+        bf[k, 1] -= Fy
+        bf[k, 2] -= Fz
+        btq[k, 0] -= ry * Fz - rz * Fy
+        btq[k, 1] -= rz * Fx - rx * Fz
+        btq[k, 2] -= rx * Fy - ry * Fx
+        e_sto += energy[c]
+        e_dis += diss[c]
+        if overlap_ratio[c] > worst:
+            worst = overlap_ratio[c]
+            worst_c = c
+    stats[0] = count
+    stats[1] = e_sto
+    stats[2] = e_dis
+    stats[3] = worst
+    stats[4] = worst_c
+
+
+@njit(cache=True)
+def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
+                       collide, verts, tris, tnormal, grid_origin, grid_cell, grid_dims,
+                       grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, ft, friction,
+                       scratch, bf, btq, stats, dt):
+    """Sphere-sphere and sphere-mesh contacts between bodies (mesh-mesh pairs are not
+    computed). ``ft`` is (K, K, 3) history; ``scratch`` a (3,) array. ``stats`` gets
+    [count, stored, dissipated, max overlap ratio]."""
+    nk = bpos.shape[0]
+    count = 0
+    e_sto = 0.0
+    e_dis = 0.0
+    worst = 0.0
+    for k1 in range(nk):
+        for k2 in range(k1 + 1, nk):
+            if not (collide[k1] and collide[k2]):
+                continue
+            static1 = motion[k1] == FIXED or motion[k1] == KINEMATIC
+            static2 = motion[k2] == FIXED or motion[k2] == KINEMATIC
+            if static1 and static2:
+                continue
+            if sphere_r[k1] <= 0.0 and sphere_r[k2] <= 0.0:
+                continue
+            # a = the sphere (normal points from b to a)
+            if sphere_r[k1] > 0.0:
+                a = k1
+                b = k2
+            else:
+                a = k2
+                b = k1
+            ra = sphere_r[a]
+            if sphere_r[b] > 0.0:
+                dx = bpos[a, 0] - bpos[b, 0]
+                dy = bpos[a, 1] - bpos[b, 1]
+                dz = bpos[a, 2] - bpos[b, 2]
+                d = math.sqrt(dx * dx + dy * dy + dz * dz)
+                ov = ra + sphere_r[b] - d
+                if ov <= 0.0:
+                    ft[k1, k2, 0] = 0.0
+                    ft[k1, k2, 1] = 0.0
+                    ft[k1, k2, 2] = 0.0
+                    continue
+                if d > 0.0:
+                    nx, ny, nz = dx / d, dy / d, dz / d
+                else:
+                    nx, ny, nz = 0.0, 0.0, 1.0
+                rb = sphere_r[b]
+            else:
+                qw, qx, qy, qz = bq[b, 0], bq[b, 1], bq[b, 2], bq[b, 3]
+                scratch[0], scratch[1], scratch[2] = qrot_inv(
+                    qw, qx, qy, qz, bpos[a, 0] - bpos[b, 0], bpos[a, 1] - bpos[b, 1],
+                    bpos[a, 2] - bpos[b, 2])
+                tri, s_, u, vv, ww, d = closest_triangle(b, scratch, scratch, ra, verts, tris,
+                                                         grid_origin, grid_cell, grid_dims,
+                                                         grid_base, grid_start, grid_tris)
+                if tri < 0:
+                    continue
+                p0 = verts[tris[tri, 0]]
+                p1 = verts[tris[tri, 1]]
+                p2 = verts[tris[tri, 2]]
+                gx = scratch[0] - (u * p0[0] + vv * p1[0] + ww * p2[0])
+                gy = scratch[1] - (u * p0[1] + vv * p1[1] + ww * p2[1])
+                gz = scratch[2] - (u * p0[2] + vv * p1[2] + ww * p2[2])
+                side = gx * tnormal[tri, 0] + gy * tnormal[tri, 1] + gz * tnormal[tri, 2]
+                if watertight[b] and side < 0.0:
+                    ov = ra + d
+                    nlx, nly, nlz = tnormal[tri, 0], tnormal[tri, 1], tnormal[tri, 2]
+                else:
+                    ov = ra - d
+                    if ov <= 0.0:
+                        ft[k1, k2, 0] = 0.0
+                        ft[k1, k2, 1] = 0.0
+                        ft[k1, k2, 2] = 0.0
+                        continue
+                    if d > 0.0:
+                        nlx, nly, nlz = gx / d, gy / d, gz / d
+                    else:
+                        nlx, nly, nlz = tnormal[tri, 0], tnormal[tri, 1], tnormal[tri, 2]
+                nx, ny, nz = qrot(qw, qx, qy, qz, nlx, nly, nlz)
+                rb = ra
+            hcp = ra - 0.5 * ov
+            cx = bpos[a, 0] - nx * hcp
+            cy = bpos[a, 1] - ny * hcp
+            cz = bpos[a, 2] - nz * hcp
+            rax, ray, raz = cx - bpos[a, 0], cy - bpos[a, 1], cz - bpos[a, 2]
+            rbx, rby, rbz = cx - bpos[b, 0], cy - bpos[b, 1], cz - bpos[b, 2]
+            vx = (bv[a, 0] + bw[a, 1] * raz - bw[a, 2] * ray) - (bv[b, 0] + bw[b, 1] * rbz
+                                                                 - bw[b, 2] * rby)
+            vy = (bv[a, 1] + bw[a, 2] * rax - bw[a, 0] * raz) - (bv[b, 1] + bw[b, 2] * rbx
+                                                                 - bw[b, 0] * rbz)
+            vz = (bv[a, 2] + bw[a, 0] * ray - bw[a, 1] * rax) - (bv[b, 2] + bw[b, 0] * rby
+                                                                 - bw[b, 1] * rbx)
+            sa = motion[a] == FIXED or motion[a] == KINEMATIC
+            sb = motion[b] == FIXED or motion[b] == KINEMATIC
+            if sa:
+                meff = bmass[b]
+            elif sb:
+                meff = bmass[a]
+            else:
+                meff = bmass[a] * bmass[b] / (bmass[a] + bmass[b])
+            m1 = body_material[a]
+            m2 = body_material[b]
+            kn = normal_stiffness(E[m1], ra, E[m2], rb)
+            Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
+                nx, ny, nz, ov, vx, vy, vz, kn, kt_table[m1, m2] * kn, mu_table[m1, m2],
+                zeta_table[m1, m2], meff, ft[k1, k2, 0], ft[k1, k2, 1], ft[k1, k2, 2],
+                friction, dt)
+            ft[k1, k2, 0] = f0
+            ft[k1, k2, 1] = f1
+            ft[k1, k2, 2] = f2
+            bf[a, 0] += Fx
+            bf[a, 1] += Fy
+            bf[a, 2] += Fz
+            btq[a, 0] += ray * Fz - raz * Fy
+            btq[a, 1] += raz * Fx - rax * Fz
+            btq[a, 2] += rax * Fy - ray * Fx
+            bf[b, 0] -= Fx
+            bf[b, 1] -= Fy
+            bf[b, 2] -= Fz
+            btq[b, 0] -= rby * Fz - rbz * Fy
+            btq[b, 1] -= rbz * Fx - rbx * Fz
+            btq[b, 2] -= rbx * Fy - rby * Fx
+            count += 1
+            e_sto += sto
+            e_dis += dis
+            worst = max(worst, ov / ra)
+    stats[0] = count
+    stats[1] = e_sto
+    stats[2] = e_dis
+    stats[3] = worst

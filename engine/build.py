@@ -1,0 +1,762 @@
+"""Build: turn a validated scene into flat arrays, assembling only the stages it needs.
+
+``build(scene) -> System``. The System owns the compiled state (``engine.state`` bundles), the
+list of assembled stages, the timestep and the element that limits it, and the names that map
+array indices back to brushes, bristles, nodes and bodies.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from . import meshes
+from .bodies import FIXED, FREE, HINGE, KINEMATIC
+from .contact_law import restitution_damping_ratio
+from .errors import SceneError
+from .rotations import matrix_to_quat, qexp, qlog, qmul, quat_from_two_vectors, quat_to_matrix
+from .spec import Scene
+from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Nodes, PairList,
+                    Roots, Tables)
+from .timestep import automatic_dt
+
+MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
+MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
+MAX_BODY_STEP_RATIO = 0.25   # body surface displacement per step / smallest bristle radius
+CHECK_EVERY = 16
+TIME_EVERY = 64
+
+
+@dataclass
+class BrushInfo:
+    name: str
+    first_bristle: int
+    n_bristles: int
+    n_nodes: int              # per bristle
+    first_node: int
+    base_position: np.ndarray  # world, t = 0
+    base_orientation: np.ndarray
+    mount: int                # body index or -1
+    root_index: np.ndarray    # indices into the Roots bundle
+
+
+@dataclass
+class System:
+    """A scene compiled for the step loop. ``run`` advances it; it can be run again to
+    continue from where it stopped."""
+
+    scene: Scene
+    nodes: Nodes
+    bonds: Bonds
+    roots: Roots
+    bodies: Bodies
+    pairs: PairList
+    body_pairs: BodyList
+    loads: Loads
+    tables: Tables
+    flags: Flags
+    acc: np.ndarray
+    err: np.ndarray
+    stage_time: np.ndarray
+    limits: np.ndarray
+    dt: float
+    dt_limited_by: str
+    dt_stable: float
+    stages: list[str]
+    brushes: list[BrushInfo]
+    body_names: list[str]
+    bristle_first_node: np.ndarray   # (n_bristles + 1,)
+    bristle_brush: np.ndarray        # (n_bristles,)
+    node_bristle: np.ndarray
+    warnings: list[str] = field(default_factory=list)
+    body_geometry: list = field(default_factory=list)
+    body_frame_offset: list = field(default_factory=list)  # quaternion shape->body per body
+
+    @property
+    def time(self) -> float:
+        return float(self.acc[11])
+
+    @property
+    def steps(self) -> int:
+        return int(self.acc[12])
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.nodes.x.shape[0])
+
+    @property
+    def n_bristles(self) -> int:
+        return int(self.bristle_brush.shape[0])
+
+    def node_label(self, n: int) -> str:
+        b = int(self.node_bristle[n])
+        if b < 0:
+            return f"node {n}"
+        brush = self.brushes[int(self.bristle_brush[b])]
+        return (f"brush {brush.name!r} bristle {b - brush.first_bristle} node "
+                f"{n - int(self.bristle_first_node[b])}")
+
+    def segment_label(self, s: int) -> str:
+        return self.node_label(int(self.bonds.i[s])).replace(" node ", " segment ")
+
+
+# ----------------------------------------------------------------------------- helpers
+def _rot(q) -> np.ndarray:
+    return quat_to_matrix(np.asarray(q, dtype=float))
+
+
+def _qmul(a, b) -> np.ndarray:
+    return np.array(qmul(*[float(c) for c in a], *[float(c) for c in b]))
+
+
+def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments and a proper rotation whose columns are the principal axes."""
+    if not np.any(inertia):
+        return np.zeros(3), np.eye(3)
+    vals, vecs = np.linalg.eigh(0.5 * (inertia + inertia.T))
+    if np.linalg.det(vecs) < 0:
+        vecs[:, 2] *= -1
+    return vals, vecs
+
+
+def kinematic_segments(profile, com0: np.ndarray, q0: np.ndarray, shape_to_body: np.ndarray,
+                       com_in_shape: np.ndarray, duration: float):
+    """Piecewise Hermite segments (t0, t1, p0, p1, v0, v1, omega, q0) of a kinematic profile
+    for the body's centre of mass and body-frame orientation."""
+    segs = []
+    kind = profile.kind
+    if kind == "constant":
+        T = profile.duration if profile.duration is not None else duration
+        v = np.asarray(profile.velocity, float)
+        w = np.asarray(profile.angular_velocity, float)
+        segs.append((0.0, T, com0, com0 + v * T, v, v, w, q0))
+    elif kind == "stepped_parabolic":
+        d = np.asarray(profile.direction, float)
+        d /= np.linalg.norm(d)
+        td = math.sqrt(6.0 * profile.step / profile.max_acceleration)  # seed 4.2
+        t = profile.start_delay
+        p = com0.copy()
+        zero = np.zeros(3)
+        if t > 0:
+            segs.append((0.0, t, p, p, zero, zero, zero, q0))
+        directions = [d] * profile.n_steps + ([-d] * profile.n_steps if profile.unload else [])
+        for dd in directions:
+            # Hermite with zero end velocities: p(tau) = p0 + s (3 tau^2 - 2 tau^3), whose
+            # velocity 6 s/t_d tau (1 - tau) is the seed's v = k t (t_d - t), k = 6 s / t_d^3
+            # = a_m / t_d.
+            p1 = p + dd * profile.step
+            segs.append((t, t + td, p, p1, zero, zero, zero, q0))
+            t += td
+            p = p1
+            if profile.dwell > 0:
+                segs.append((t, t + profile.dwell, p, p, zero, zero, zero, q0))
+                t += profile.dwell
+    elif kind == "waypoints":
+        times = np.asarray(profile.times, float)
+        pos = np.asarray(profile.positions, float)
+        if profile.orientations is None:
+            shape_q = np.repeat(_qmul(q0, _conj(shape_to_body))[None, :], len(times), axis=0)
+        else:
+            shape_q = np.asarray(profile.orientations, float)
+        quats = np.array([_qmul(sq, shape_to_body) for sq in shape_q])
+        # waypoints place the shape's frame; the body frame sits at the centre of mass
+        coms = np.array([p + _rot(sq) @ com_in_shape for p, sq in zip(pos, shape_q)])
+        n = len(times)
+        vel = np.zeros_like(coms)
+        for i in range(1, n - 1):  # Catmull-Rom velocities, zero at both ends
+            vel[i] = (coms[i + 1] - coms[i - 1]) / (times[i + 1] - times[i - 1])
+        zero = np.zeros(3)
+        if times[0] > 0:
+            segs.append((0.0, float(times[0]), coms[0], coms[0], zero, zero, zero, quats[0]))
+        for i in range(n - 1):
+            h = times[i + 1] - times[i]
+            dq = _qmul(quats[i + 1], _conj(quats[i]))
+            w = np.array(qlog(*dq)) / h
+            segs.append((float(times[i]), float(times[i + 1]), coms[i], coms[i + 1], vel[i],
+                         vel[i + 1], w, quats[i]))
+    return segs
+
+
+def _conj(q) -> np.ndarray:
+    return np.array([q[0], -q[1], -q[2], -q[3]], float)
+
+
+# ----------------------------------------------------------------------------- build
+def build(scene: Scene) -> System:
+    """Compile a validated scene. Raises SceneError for problems only the build can see
+    (unreadable meshes, a dt override above the stability limit is only warned about)."""
+    if not isinstance(scene, Scene):
+        raise SceneError.single("(scene)", type(scene).__name__,
+                                "build() takes an engine.Scene (see engine.load_scene)")
+    warnings: list[str] = []
+    mat_names = list(scene.materials)
+    mat_index = {m: i for i, m in enumerate(mat_names)}
+    M = len(mat_names)
+    E_tab = np.array([scene.materials[m].youngs_modulus for m in mat_names], float)
+    mu = np.zeros((M, M))
+    ktr = np.full((M, M), 0.25)
+    zeta = np.zeros((M, M))
+    for a in range(M):
+        for b in range(M):
+            pair = scene.pair(mat_names[a], mat_names[b])
+            mu[a, b] = math.tan(pair.friction_angle)
+            ktr[a, b] = pair.tangential_ratio
+            zeta[a, b] = restitution_damping_ratio(pair.restitution)
+    gravity = np.asarray(scene.environment.gravity, float)
+
+    # ------------------------------------------------------------------ bodies
+    K = len(scene.bodies)
+    body_names = [b.name for b in scene.bodies]
+    geoms = []
+    pos = np.zeros((K, 3))
+    q = np.zeros((K, 4))
+    q[:, 0] = 1.0
+    vel = np.zeros((K, 3))
+    omg = np.zeros((K, 3))
+    L = np.zeros((K, 3))
+    mass = np.zeros(K)
+    Ip = np.zeros((K, 3))
+    motion = np.zeros(K, np.int64)
+    h_axis = np.zeros((K, 3))
+    h_point = np.zeros((K, 3))
+    h_inertia = np.ones(K)
+    h_k1 = np.zeros(K)
+    h_k2 = np.zeros(K)
+    after_free = np.zeros(K, np.bool_)
+    sphere_r = np.zeros(K)
+    bound_r = np.zeros(K)
+    watertight = np.zeros(K, np.bool_)
+    bmat = np.zeros(K, np.int64)
+    collide = np.zeros(K, np.bool_)
+    seg_rows = []
+    seg_start = [0]
+    verts_all, tris_all, normals_all = [], [], []
+    g_origin = np.zeros((K, 3))
+    g_cell = np.ones(K)
+    g_dims = np.ones((K, 3), np.int64)
+    g_base = np.zeros(K, np.int64)
+    g_start_all, g_tris_all = [], []
+    v_off = 0
+    t_off = 0
+    c_off = 0
+    shape_to_body_list = []
+    for k, body in enumerate(scene.bodies):
+        fld = f"bodies.{k}"
+        geo = meshes.body_geometry(body, field=fld)
+        geoms.append(geo)
+        vals, R_p = _principal(np.asarray(geo.inertia, float))
+        q_p = matrix_to_quat(R_p)  # body (principal) frame -> shape axes
+        shape_to_body_list.append(q_p)
+        q_pose = np.asarray(body.pose.orientation, float)
+        R_pose = _rot(q_pose)
+        pos[k] = np.asarray(body.pose.position, float) + R_pose @ geo.com_in_shape
+        q[k] = _qmul(q_pose, q_p)
+        mass[k] = geo.mass
+        Ip[k] = vals
+        vp = geo.vertices @ R_p  # coordinates in the principal frame
+        tris = np.asarray(geo.triangles, np.int64)
+        verts_all.append(vp)
+        tris_all.append(tris + v_off)
+        e1 = vp[tris[:, 1]] - vp[tris[:, 0]]
+        e2 = vp[tris[:, 2]] - vp[tris[:, 0]]
+        nrm = np.cross(e1, e2)
+        ln = np.linalg.norm(nrm, axis=1)
+        good = ln > 1e-300
+        nrm[good] /= ln[good, None]
+        nrm[~good] = 0.0
+        normals_all.append(nrm)
+        origin, cell, dims, start, gtris = meshes.triangle_grid(vp, tris)
+        g_origin[k] = origin
+        g_cell[k] = cell
+        g_dims[k] = dims
+        g_base[k] = c_off
+        # this body's CSR offsets, shifted to index the concatenated triangle lists
+        g_start_all.append(np.asarray(start, np.int64)[:-1] + sum(len(x) for x in g_tris_all))
+        g_tris_all.append(np.asarray(gtris, np.int64) + t_off)
+        c_off += int(np.prod(dims))
+        v_off += len(vp)
+        t_off += len(tris)
+        sphere_r[k] = geo.sphere_radius
+        bound_r[k] = geo.bounding_radius
+        watertight[k] = geo.watertight
+        bmat[k] = mat_index[body.material]
+        collide[k] = body.collide
+        if geo.n_degenerate:
+            warnings.append(f"body {body.name!r}: {geo.n_degenerate} degenerate triangle(s) "
+                            f"kept (their normals are unused)")
+        R_b = _rot(q[k])
+        I_world = R_b @ np.diag(vals) @ R_b.T
+        m = body.motion
+        v0 = np.asarray(body.velocity, float)
+        w0 = np.asarray(body.angular_velocity, float)
+        if m.type == "fixed":
+            motion[k] = FIXED
+        elif m.type == "free":
+            motion[k] = FREE
+            vel[k] = v0
+            omg[k] = w0
+            L[k] = I_world @ w0
+        elif m.type == "hinge":
+            motion[k] = HINGE
+            a = np.asarray(m.axis, float)
+            a /= np.linalg.norm(a)
+            p = pos[k] if m.point is None else np.asarray(m.point, float)
+            r = pos[k] - p
+            h_axis[k] = a
+            h_point[k] = p
+            h_inertia[k] = float(a @ I_world @ a + mass[k] * np.dot(np.cross(a, r), np.cross(a, r)))
+            h_k1[k] = m.k1
+            h_k2[k] = m.k2
+            om = float(w0 @ a)
+            omg[k] = om * a
+            vel[k] = np.cross(omg[k], r)
+            if h_inertia[k] <= 0:
+                raise SceneError.single(f"{fld}.mass_properties", None,
+                                        "a hinge body needs a positive moment about its axis")
+        else:
+            motion[k] = KINEMATIC
+            after_free[k] = m.after == "free"
+            segs = kinematic_segments(m.profile, pos[k].copy(), q[k].copy(), q_p,
+                                      geo.com_in_shape, scene.run.duration)
+            if not segs:
+                raise SceneError.single(f"{fld}.motion.profile", m.profile.kind,
+                                        "the profile produces no motion segment")
+            seg_rows.extend(segs)
+        seg_start.append(len(seg_rows))
+    if not seg_rows:  # numba needs at least one row of each table
+        seg_rows.append((0.0, 1.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3),
+                         np.zeros(3), np.array([1.0, 0, 0, 0])))
+    kin = list(zip(*seg_rows))
+    if K:
+        verts = np.concatenate(verts_all)
+        tris = np.concatenate(tris_all)
+        normals = np.concatenate(normals_all)
+        g_start = np.concatenate(g_start_all + [np.array([sum(len(x) for x in g_tris_all)])])
+        g_tris = np.concatenate(g_tris_all) if g_tris_all else np.zeros(0, np.int64)
+    else:
+        verts = np.zeros((1, 3))
+        tris = np.zeros((1, 3), np.int64)
+        normals = np.zeros((1, 3))
+        g_start = np.zeros(1, np.int64)
+        g_tris = np.zeros(0, np.int64)
+
+    # ------------------------------------------------------------------ bristles
+    xs, rads, masses, inertias, node_bristle, node_mat = [], [], [], [], [], []
+    qs = []
+    bi_l, bj_l, kn_l, ks_l, kb_l, kt_l, L0_l = [], [], [], [], [], [], []
+    cn_l, cs_l, cb_l, ct_l = [], [], [], []
+    bond_bristle, bond_mat, bond_mount, has_next = [], [], [], []
+    root_node, root_body, root_lpos, root_lq, root_brush = [], [], [], [], []
+    brushes: list[BrushInfo] = []
+    bristle_first = [0]
+    bristle_brush = []
+    n_node = 0
+    n_bristle = 0
+    for bidx, br in enumerate(scene.brushes):
+        mat = scene.materials[br.material]
+        E = mat.youngs_modulus
+        G = E / (2.0 * (1.0 + mat.poisson_ratio))
+        rho = mat.density
+        zb = mat.bond_damping
+        mount = body_names.index(br.mount) if br.mount is not None else -1
+        qb = np.asarray(br.base.orientation, float)
+        pb = np.asarray(br.base.position, float)
+        if mount >= 0:
+            body = scene.bodies[mount]
+            q_shape = np.asarray(body.pose.orientation, float)
+            p_shape = np.asarray(body.pose.position, float)
+            pb_w = p_shape + _rot(q_shape) @ pb
+            qb_w = _qmul(q_shape, qb)
+        else:
+            pb_w, qb_w = pb, qb
+        Rb = _rot(qb_w)
+        rng = np.random.default_rng(br.seed)
+        n = br.n_nodes
+        frac = np.linspace(0.0, 1.0, n)
+        r_node = br.root_radius + (br.tip_radius - br.root_radius) * frac
+        seg_len = br.bristle_length / (n - 1)
+        r0, r1 = r_node[:-1], r_node[1:]
+        seg_mass = rho * math.pi * seg_len * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0  # frustum
+        m_node = np.zeros(n)
+        m_node[:-1] += 0.5 * seg_mass
+        m_node[1:] += 0.5 * seg_mass
+        I_node = 0.5 * m_node * r_node ** 2  # isotropic: the node's own twist inertia
+        A_eff = math.pi * r0 * r1                                         # 1/EA integrated
+        I_eff = math.pi / 4 * 3 * r0 ** 3 * r1 ** 3 / (r0 * r0 + r0 * r1 + r1 * r1)  # 1/EI
+        kn = E * A_eff / seg_len                     # seed eq. 3.1
+        ks = 12.0 * E * I_eff / seg_len ** 3
+        kb = E * I_eff / seg_len
+        kt = G * 2.0 * I_eff / seg_len
+        mi, mj = m_node[:-1], m_node[1:]
+        meff = np.where(np.arange(n - 1) == 0, mj, mi * mj / (mi + mj))
+        Ii, Ij = I_node[:-1], I_node[1:]
+        Ieff = np.where(np.arange(n - 1) == 0, Ij, Ii * Ij / (Ii + Ij))
+        first_bristle = n_bristle
+        first_node = n_node
+        roots_here = []
+        for row in range(br.rows):
+            for col in range(br.columns):
+                x_loc = (col - 0.5 * (br.columns - 1)) * br.pitch[0]
+                if br.pattern == "staggered" and row % 2 == 1:
+                    x_loc += 0.5 * br.pitch[0]
+                y_loc = (row - 0.5 * (br.rows - 1)) * br.pitch[1]
+                root_l = np.array([x_loc, y_loc, 0.0])
+                tip_l = root_l + np.array([0.0, 0.0, br.bristle_length])
+                if br.tip_variance > 0:
+                    tip_l[:2] += rng.normal(0.0, math.sqrt(br.tip_variance), 2)
+                d_l = tip_l - root_l
+                d_l /= np.linalg.norm(d_l)
+                q_node = _qmul(qb_w, quat_from_two_vectors(np.array([0, 0, 1.0]), d_l))
+                root_w = pb_w + Rb @ root_l
+                d_w = Rb @ d_l
+                for kk in range(n):
+                    xs.append(root_w + d_w * (kk * seg_len))
+                    qs.append(q_node)
+                rads.append(r_node)
+                masses.append(m_node)
+                inertias.append(I_node)
+                node_bristle.append(np.full(n, n_bristle))
+                node_mat.append(np.full(n, mat_index[br.material]))
+                base = n_node
+                bi_l.append(base + np.arange(n - 1))
+                bj_l.append(base + np.arange(1, n))
+                kn_l.append(kn)
+                ks_l.append(ks)
+                kb_l.append(kb)
+                kt_l.append(kt)
+                L0_l.append(np.full(n - 1, seg_len))
+                cn_l.append(2 * zb * np.sqrt(kn * meff))
+                cs_l.append(2 * zb * np.sqrt(ks * meff))
+                cb_l.append(2 * zb * np.sqrt(kb * Ieff))
+                ct_l.append(2 * zb * np.sqrt(kt * Ieff))
+                bond_bristle.append(np.full(n - 1, n_bristle))
+                bond_mat.append(np.full(n - 1, mat_index[br.material]))
+                bond_mount.append(np.full(n - 1, mount))
+                hn = np.ones(n - 1, np.bool_)
+                hn[-1] = False
+                has_next.append(hn)
+                root_node.append(base)
+                root_body.append(mount)
+                if mount >= 0:
+                    Rk = _rot(q[mount])
+                    root_lpos.append(Rk.T @ (root_w - pos[mount]))
+                    root_lq.append(_qmul(_conj(q[mount]), q_node))
+                else:
+                    root_lpos.append(root_w)
+                    root_lq.append(q_node)
+                root_brush.append(bidx)
+                roots_here.append(len(root_node) - 1)
+                n_node += n
+                n_bristle += 1
+                bristle_first.append(n_node)
+                bristle_brush.append(bidx)
+        brushes.append(BrushInfo(br.name, first_bristle, br.n_bristles, n, first_node, pb_w,
+                                 qb_w, mount, np.asarray(roots_here, np.int64)))
+
+    N = n_node
+    cat = lambda lst, shape, dt=float: (np.concatenate(lst).astype(dt) if lst
+                                        else np.zeros(shape, dt))
+    x = np.asarray(xs, float).reshape(N, 3)
+    qn = np.asarray(qs, float).reshape(N, 4)
+    rad = cat(rads, 0)
+    nmass = cat(masses, 0)
+    ninertia = cat(inertias, 0)
+    nbristle = cat(node_bristle, 0, np.int64)
+    bi = cat(bi_l, 0, np.int64)
+    bj = cat(bj_l, 0, np.int64)
+    B = bi.shape[0]
+    bond_prev = np.full(N, -1, np.int64)
+    bond_next = np.full(N, -1, np.int64)
+    bond_next[bi] = np.arange(B)
+    bond_prev[bj] = np.arange(B)
+    inv_mass = np.where(nmass > 0, 1.0 / np.where(nmass > 0, nmass, 1.0), 0.0)
+    inv_inertia = np.where(ninertia > 0, 1.0 / np.where(ninertia > 0, ninertia, 1.0), 0.0)
+    root_node_a = np.asarray(root_node, np.int64)
+    inv_mass[root_node_a] = 0.0
+    inv_inertia[root_node_a] = 0.0
+    node_free = inv_mass > 0
+
+    nodes = Nodes(x=x, v=np.zeros((N, 3)), q=qn, w=np.zeros((N, 3)), f=np.zeros((N, 3)),
+                  t=np.zeros((N, 3)), mass=nmass, inv_mass=inv_mass, inertia=ninertia,
+                  inv_inertia=inv_inertia, rad=rad, bond_prev=bond_prev, bond_next=bond_next,
+                  x_build=x.copy(), x0=x.copy())
+    bonds = Bonds(i=bi, j=bj, kn=cat(kn_l, 0), ks=cat(ks_l, 0), kb=cat(kb_l, 0),
+                  kt=cat(kt_l, 0), L0=cat(L0_l, 0), cn=cat(cn_l, 0), cs=cat(cs_l, 0),
+                  cb=cat(cb_l, 0), ct=cat(ct_l, 0), f=np.zeros((B, 3)), ti=np.zeros((B, 3)),
+                  tj=np.zeros((B, 3)), energy=np.zeros(B), diss=np.zeros(B), bend=np.zeros(B),
+                  has_next=cat(has_next, 0, np.bool_), bristle=cat(bond_bristle, 0, np.int64),
+                  material=cat(bond_mat, 0, np.int64), mount=cat(bond_mount, 0, np.int64),
+                  mid=np.zeros((B, 3)), bound=np.zeros(B))
+    roots = Roots(node=root_node_a, body=np.asarray(root_body, np.int64),
+                  local_pos=np.asarray(root_lpos, float).reshape(-1, 3),
+                  local_q=np.asarray(root_lq, float).reshape(-1, 4))
+    bodies = Bodies(
+        pos=pos, q=q, v=vel, w=omg, L=L, mass=mass, Ip=Ip, motion=motion,
+        f=np.zeros((K, 3)), tq=np.zeros((K, 3)), hinge_axis=h_axis, hinge_point=h_point,
+        hinge_inertia=h_inertia, hinge_k1=h_k1, hinge_k2=h_k2, after_free=after_free,
+        seg_start=np.asarray(seg_start, np.int64), t0=np.asarray(kin[0], float),
+        t1=np.asarray(kin[1], float), p0=np.asarray(kin[2], float), p1=np.asarray(kin[3], float),
+        v0=np.asarray(kin[4], float), v1=np.asarray(kin[5], float), wseg=np.asarray(kin[6], float),
+        q0=np.asarray(kin[7], float), cursor=np.zeros(K, np.int64), sphere_r=sphere_r,
+        bound_r=bound_r, watertight=watertight, material=bmat, collide=collide,
+        pos_build=pos.copy(), pos0=pos.copy(), verts=np.ascontiguousarray(verts, float),
+        tris=np.ascontiguousarray(tris, np.int64), tnormal=np.ascontiguousarray(normals),
+        grid_origin=g_origin, grid_cell=g_cell, grid_dims=g_dims, grid_base=g_base,
+        grid_start=np.ascontiguousarray(g_start, np.int64),
+        grid_tris=np.ascontiguousarray(g_tris, np.int64), ft_bb=np.zeros((K, K, 3)),
+        scratch=np.zeros(3))
+    # kinematic bodies start on their profile
+    from .bodies import kinematic_state
+    for k in range(K):
+        if motion[k] == KINEMATIC:
+            kinematic_state(k, 0.0, bodies.seg_start, bodies.t0, bodies.t1, bodies.p0,
+                            bodies.p1, bodies.v0, bodies.v1, bodies.wseg, bodies.q0,
+                            bodies.cursor, bodies.pos, bodies.v, bodies.q, bodies.w)
+    bodies.pos_build[:] = bodies.pos
+    bodies.pos0[:] = bodies.pos
+
+    # ------------------------------------------------------------------ stages
+    bristle_mats = sorted({mat_index[b.material] for b in scene.brushes})
+    body_mats = sorted({int(bmat[k]) for k in range(K) if collide[k]})
+    bb_needed = _bristles_can_meet(scene, brushes, x, rad, bristle_first, n_bristle, motion)
+    bbody_needed = N > 0 and bool(collide.any())
+    spheres = [k for k in range(K) if collide[k] and sphere_r[k] > 0]
+    bodybody_needed = False
+    for k1 in range(K):
+        for k2 in range(k1 + 1, K):
+            if not (collide[k1] and collide[k2]):
+                continue
+            if sphere_r[k1] <= 0 and sphere_r[k2] <= 0:
+                if motion[k1] != FIXED or motion[k2] != FIXED:
+                    warnings.append(f"bodies {body_names[k1]!r} and {body_names[k2]!r}: "
+                                    f"mesh-mesh contacts are not computed (only sphere "
+                                    f"bodies touch other bodies)")
+                continue
+            if motion[k1] in (FIXED, KINEMATIC) and motion[k2] in (FIXED, KINEMATIC):
+                continue
+            bodybody_needed = True
+    fr_bb = bb_needed and any(mu[a, b] > 0 for a in bristle_mats for b in bristle_mats)
+    fr_body = bbody_needed and any(mu[a, b] > 0 for a in bristle_mats for b in body_mats)
+    fr_bodybody = bodybody_needed and any(mu[a, b] > 0 for a in body_mats for b in body_mats)
+    rigid = bool(np.any(motion != FIXED))
+    mounted = bool(np.any(roots.body >= 0))
+    has_gravity = bool(np.any(gravity != 0)) and (bool(node_free.any()) or rigid)
+    channels = list(scene.run.channels)
+    track_energy = "energy" in channels
+    bond_damped = bool(np.any(bonds.cn > 0) or np.any(bonds.cb > 0))
+    alpha = scene.environment.local_damping
+
+    # loads
+    load_nodes, load_of, lforce, lstart, ltimes, lvalues, lfreq, lphase = [], [], [], [0], [], [], [], []
+    brush_by_name = {b.name: i for i, b in enumerate(brushes)}
+    for li, ldef in enumerate(scene.loads):
+        info = brushes[brush_by_name[ldef.brush]]
+        idx = range(info.n_bristles) if ldef.bristles == "all" else ldef.bristles
+        node_in = ldef.node % info.n_nodes
+        for b in idx:
+            n_glob = info.first_node + b * info.n_nodes + node_in
+            if inv_mass[n_glob] == 0:
+                raise SceneError.single(f"loads.{li}.node", ldef.node,
+                                        "a load on a root node does nothing: roots are clamped")
+            load_nodes.append(n_glob)
+            load_of.append(li)
+        lforce.append(ldef.force)
+        ltimes.extend(ldef.profile.times)
+        lvalues.extend(ldef.profile.values)
+        lstart.append(len(ltimes))
+        lfreq.append(ldef.profile.frequency)
+        lphase.append(ldef.profile.phase)
+    NL = len(scene.loads)
+    loads = Loads(node=np.asarray(load_nodes, np.int64), load=np.asarray(load_of, np.int64),
+                  force=np.asarray(lforce, float).reshape(NL, 3),
+                  start=np.asarray(lstart, np.int64), times=np.asarray(ltimes or [0.0], float),
+                  values=np.asarray(lvalues or [0.0], float), frequency=np.asarray(lfreq, float),
+                  phase=np.asarray(lphase, float), amp=np.zeros(NL))
+
+    # ------------------------------------------------------------------ timestep
+    E_node = E_tab[cat(node_mat, 0, np.int64)] if N else np.zeros(0)
+    bodies_info = []
+    r_min = float(rad.min()) if N else 0.0
+    E_br_max = float(E_node.max()) if N else 0.0
+    r_max = float(rad.max()) if N else 0.0
+    n_segments = max(B, 1)
+    for k in range(K):
+        if motion[k] in (FREE, HINGE) or after_free[k]:
+            k_body = 0.0
+            if bbody_needed and N:
+                k_body += min(n_segments, 100) * 2.0 * E_br_max * r_max
+            if bodybody_needed and sphere_r[k] > 0:
+                k_body += 2.0 * float(E_tab[bmat[k]]) * sphere_r[k] * 2
+            elif bodybody_needed and spheres:
+                k_body += 2.0 * float(E_tab[bmat[k]]) * max(sphere_r[s] for s in spheres) * 2
+            bodies_info.append((body_names[k], float(mass[k]), float(Ip[k].min()), k_body,
+                                float(bound_r[k])))
+    sysinfo = dict(node_mass=np.where(nmass > 0, nmass, 1.0), node_inertia=np.where(ninertia > 0, ninertia, 1.0),
+                   node_radius=rad, node_E=E_node, node_free=node_free,
+                   bond_arrays=(bi, bj, bonds.kn, bonds.ks, bonds.kb, bonds.kt, bonds.L0),
+                   bristle_bristle=bb_needed, bristle_body=bbody_needed, bodies=bodies_info,
+                   node_label=None)
+    node_bristle_arr = nbristle
+    bristle_first_arr = np.asarray(bristle_first, np.int64)
+    bristle_brush_arr = np.asarray(bristle_brush, np.int64)
+
+    def label(n):
+        b = int(node_bristle_arr[n])
+        brush = brushes[int(bristle_brush_arr[b])]
+        return (f"brush {brush.name!r} bristle {b - brush.first_bristle} node "
+                f"{n - int(bristle_first_arr[b])}")
+    sysinfo["node_label"] = label
+    dt_stable, limited_by, _ = automatic_dt(sysinfo, 1.0)
+    if scene.run.dt is None:
+        dt = scene.run.dt_safety * dt_stable
+        if not math.isfinite(dt):
+            dt = scene.run.record_interval
+            limited_by = "nothing moves elastically: dt = record_interval"
+    else:
+        dt = scene.run.dt
+        limited_by = "given in the scene (run.dt)"
+        if dt > dt_stable:
+            warnings.append(f"run.dt = {dt:.3g} s exceeds the estimated stability limit "
+                            f"{dt_stable:.3g} s (set by {limited_by}); the run may "
+                            f"become unstable")
+    dt = min(dt, scene.run.record_interval, scene.run.duration)
+
+    skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)
+    cap_pairs = 16
+    cap_body = 16
+    pairs = _pair_list(cap_pairs, fr_bb)
+    body_pairs = _body_list(cap_body, fr_body)
+
+    flags = Flags(bonds=B > 0, bond_damping=bond_damped, bristle_bristle=bb_needed,
+                  bristle_body=bbody_needed, body_body=bodybody_needed,
+                  friction_bristle=fr_bb, friction_body=fr_body,
+                  friction_body_body=fr_bodybody, rigid_bodies=rigid, mounted_roots=mounted,
+                  gravity=has_gravity, loads=NL > 0 and len(load_nodes) > 0,
+                  local_damping=alpha > 0, track_energy=track_energy,
+                  check_every=CHECK_EVERY, time_every=TIME_EVERY)
+    stages = []
+    if flags.bonds:
+        stages.append("bonds")
+    if flags.bond_damping:
+        stages.append("bond_damping")
+    if bb_needed or bbody_needed:
+        stages.append("neighbour_list")
+    if bb_needed:
+        stages.append("bristle_bristle_contacts")
+    if bbody_needed:
+        stages.append("bristle_body_contacts")
+    if bodybody_needed:
+        stages.append("body_body_contacts")
+    if fr_bb or fr_body or fr_bodybody:
+        stages.append("tangential_history")
+    if rigid:
+        stages.append("rigid_bodies")
+    if mounted:
+        stages.append("mounted_roots")
+    if has_gravity:
+        stages.append("gravity")
+    if flags.loads:
+        stages.append("loads")
+    if flags.local_damping:
+        stages.append("local_damping")
+    if track_energy:
+        stages.append("energy_tracking")
+
+    limits = np.array([MAX_OVERLAP_RATIO, MAX_NODE_STEP_RATIO,
+                       MAX_BODY_STEP_RATIO * (r_min if N else 1.0), skin, alpha])
+    acc = np.zeros(ACC_SIZE)
+    tables = Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity)
+    system = System(scene=scene, nodes=nodes, bonds=bonds, roots=roots, bodies=bodies,
+                    pairs=pairs, body_pairs=body_pairs, loads=loads, tables=tables,
+                    flags=flags, acc=acc, err=np.zeros(4), stage_time=np.zeros(len(STAGES)),
+                    limits=limits, dt=float(dt), dt_limited_by=limited_by,
+                    dt_stable=float(dt_stable), stages=stages, brushes=brushes,
+                    body_names=body_names, bristle_first_node=bristle_first_arr,
+                    bristle_brush=bristle_brush_arr, node_bristle=node_bristle_arr,
+                    warnings=warnings, body_geometry=geoms,
+                    body_frame_offset=shape_to_body_list)
+    if bb_needed or bbody_needed:
+        initial_lists(system)
+    return system
+
+
+def _pair_list(cap: int, friction: bool) -> PairList:
+    h = cap if friction else 0
+    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((max(h, 1), 3)),
+                    active=np.zeros(cap, np.int8), fc=np.zeros((cap, 3)), cp=np.zeros((cap, 3)),
+                    s=np.zeros(cap), t=np.zeros(cap), energy=np.zeros(cap), diss=np.zeros(cap),
+                    ratio=np.zeros(cap), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
+                    b2=np.zeros(cap, np.int64), ft2=np.zeros((max(h, 1), 3)))
+
+
+def _body_list(cap: int, friction: bool) -> BodyList:
+    h = cap if friction else 0
+    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((max(h, 1), 3)),
+                    active=np.zeros(cap, np.int8), fc=np.zeros((cap, 3)), cp=np.zeros((cap, 3)),
+                    par=np.zeros(cap), energy=np.zeros(cap), diss=np.zeros(cap),
+                    ratio=np.zeros(cap), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
+                    s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
+                    ft2=np.zeros((max(h, 1), 3)))
+
+
+def grow_lists(system: System, which: int, needed: int) -> None:
+    """Replace a neighbour list by a larger one, keeping its contents."""
+    cap = int(needed * 1.5) + 64
+    if which == 1:
+        old = system.pairs
+        new = _pair_list(cap, system.flags.friction_bristle)
+        n = int(old.n[0])
+        new.a[:n] = old.a[:n]
+        new.b[:n] = old.b[:n]
+        if system.flags.friction_bristle:
+            new.ft[:n] = old.ft[:n]
+        new.n[0] = n
+        system.pairs = new
+    else:
+        old = system.body_pairs
+        new = _body_list(cap, system.flags.friction_body)
+        n = int(old.n[0])
+        new.s[:n] = old.s[:n]
+        new.b[:n] = old.b[:n]
+        if system.flags.friction_body:
+            new.ft[:n] = old.ft[:n]
+        new.n[0] = n
+        system.body_pairs = new
+
+
+def initial_lists(system: System) -> None:
+    from .state import OK
+    from .stepper import rebuild_lists
+    while True:
+        code = rebuild_lists(system.nodes, system.bonds, system.bodies, system.pairs,
+                             system.body_pairs, system.flags, system.limits[3])
+        if code == OK:
+            return
+        which = 1 if code == 1 else 2
+        needed = int((system.pairs if which == 1 else system.body_pairs).n[1])
+        grow_lists(system, which, needed)
+
+
+def _bristles_can_meet(scene, brushes, x, rad, bristle_first, n_bristle, motion) -> bool:
+    """Can two different bristles ever touch? Roots further apart than the two bristles'
+    lengths plus radii cannot, unless a brush rides on a moving body."""
+    if n_bristle < 2:
+        return False
+    moving_mounts = {b.mount for b in brushes if b.mount >= 0 and motion[b.mount] != FIXED}
+    if moving_mounts and len(brushes) > 1:
+        return True
+    first = np.asarray(bristle_first[:-1], np.int64)
+    roots = x[first]
+    reach = np.zeros(n_bristle)
+    for br, info in zip(scene.brushes, brushes):
+        reach[info.first_bristle:info.first_bristle + info.n_bristles] = (
+            br.bristle_length + max(br.root_radius, br.tip_radius))
+    from scipy.spatial import cKDTree
+    tree = cKDTree(roots)
+    pairs = tree.query_pairs(2.0 * float(reach.max()), output_type="ndarray")
+    if len(pairs) == 0:
+        return False
+    d = np.linalg.norm(roots[pairs[:, 0]] - roots[pairs[:, 1]], axis=1)
+    return bool(np.any(d < reach[pairs[:, 0]] + reach[pairs[:, 1]]))

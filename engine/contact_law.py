@@ -1,0 +1,94 @@
+"""The Cundall-Strack contact law (seed eqs. 3.5-3.9), shared by every contact type.
+
+Normal: linear spring ``k_n * overlap`` plus an optional viscous term from a coefficient of
+restitution; never attractive. Tangential: an incremental spring kept per contact across steps
+(contact history), rotated into the current tangent plane each step, capped by Coulomb's
+``|F_t| <= |F_n| tan(phi)`` (seed eq. 3.8).
+"""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+
+def restitution_damping_ratio(e: float) -> float:
+    """Damping ratio of a linear spring-dashpot that rebounds with restitution e."""
+    if e >= 1.0:
+        return 0.0
+    le = math.log(e)
+    return -le / math.sqrt(math.pi ** 2 + le * le)
+
+
+@njit(cache=True, inline="always")
+def normal_stiffness(E1, l1, E2, l2):
+    """Seed eq. 3.6: two springs E_i l_i in series (l the characteristic lengths)."""
+    a = E1 * l1
+    b = E2 * l2
+    return a * b / (a + b)
+
+
+@njit(cache=True, inline="always")
+def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
+                  ftx, fty, ftz, friction, dt):
+    """Force on side A of a contact whose normal n points from B to A.
+
+    ``v`` is the velocity of A's contact point relative to B's. ``ft`` is the tangential
+    force kept from the last step (ignored unless ``friction``). Returns
+    ``(Fx, Fy, Fz, ftx, fty, ftz, dissipated, stored)``: the total force on A, the new
+    tangential force to keep, the energy dissipated this step and the elastic energy stored.
+    """
+    fn = kn * overlap
+    vn = vx * nx + vy * ny + vz * nz
+    diss = 0.0
+    if zeta > 0.0:
+        c = 2.0 * zeta * math.sqrt(kn * meff)
+        fd = -c * vn
+        if fn + fd < 0.0:
+            fd = -fn
+        diss = -fd * vn * dt
+        fnt = fn + fd
+    else:
+        fnt = fn
+    Fx = fnt * nx
+    Fy = fnt * ny
+    Fz = fnt * nz
+    stored = 0.5 * fn * overlap
+    if friction and mu > 0.0:
+        # rotate the kept tangential force into the current tangent plane, same magnitude
+        old2 = ftx * ftx + fty * fty + ftz * ftz
+        dn = ftx * nx + fty * ny + ftz * nz
+        ftx -= dn * nx
+        fty -= dn * ny
+        ftz -= dn * nz
+        new2 = ftx * ftx + fty * fty + ftz * ftz
+        if new2 > 0.0 and old2 > 0.0:
+            s = math.sqrt(old2 / new2)
+            ftx *= s
+            fty *= s
+            ftz *= s
+        tvx = vx - vn * nx
+        tvy = vy - vn * ny
+        tvz = vz - vn * nz
+        ftx -= kt * tvx * dt
+        fty -= kt * tvy * dt
+        ftz -= kt * tvz * dt
+        cap = mu * fn
+        mag = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        if mag > cap:
+            # slip: the spring's excess is dissipated by sliding (seed eq. 3.8)
+            diss += cap * (mag - cap) / kt
+            if mag > 0.0:
+                s = cap / mag
+                ftx *= s
+                fty *= s
+                ftz *= s
+        Fx += ftx
+        Fy += fty
+        Fz += ftz
+        stored += 0.5 * (ftx * ftx + fty * fty + ftz * ftz) / kt
+    else:
+        ftx = 0.0
+        fty = 0.0
+        ftz = 0.0
+    return Fx, Fy, Fz, ftx, fty, ftz, diss, stored

@@ -1,0 +1,335 @@
+"""Result writer: one HDF5 file per run, written as the run goes.
+
+The recorder is generic: the run loop declares its per-frame *channels* (dataset path ->
+per-frame shape and dtype) and its *statics* (arrays written once), then appends one frame at a
+time. The layout is documented in ``docs/results.md``; :mod:`engine.results` is the one reader.
+
+Killed-run safety (SIGKILL, not power loss)
+-------------------------------------------
+* The file uses the latest HDF5 format and is switched to SWMR (single-writer/multiple-reader)
+  mode at the end of ``__init__``. From then on HDF5 orders its metadata writes so that the file
+  on disk is always a valid HDF5 file, whatever moment the writer dies at.
+* Root attribute ``n_frames`` is the commit marker. Every ``flush_every`` frames the recorder
+  flushes (rows and dataset extents reach the file), then rewrites ``n_frames`` in place and
+  flushes again. So ``n_frames`` never counts a row that is not on disk; rows past it (a dataset
+  may have been extended before the crash) are never shown by the reader.
+* Chunks are unfiltered (no compression) and bypass the chunk cache, so a row is written to its
+  final, fixed place in the file and already-committed bytes are never moved.
+* The file is built under a temporary name next to the target (``.<name>.creating``) and
+  renamed into place only once it is in SWMR mode, so the result path never shows a
+  half-created file (and an older file at that path stays intact until then). A writer killed
+  inside ``__init__`` leaves only the temporary file behind.
+* File locking is off in the writer and the reader (``locking=False``): SWMR, not locks, keeps
+  readers consistent; a reader can open the file while the run writes it, and after the writer
+  was killed. Readers open a live or killed file with ``swmr=True`` (see ``engine.results``).
+* Attribute writes after ``__init__`` (``set_attrs``, ``close``) happen in SWMR mode. Creating
+  attributes is outside what SWMR formally guarantees to *concurrent* readers, but it never
+  makes the file unopenable. Text attributes are fixed-length (see ``_text``) so that a kill
+  while one is replaced cannot leave it dangling; the reader still reads attributes one by one
+  and tolerates a bad one.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+import traceback
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+from h5py import h5f, h5p
+
+FORMAT = "brush-studio-result"
+FORMAT_VERSION = 1
+STATUSES = ("running", "completed", "stopped", "failed", "cancelled")
+#: attributes the recorder owns; ``attrs``/``set_attrs`` may not set them
+RESERVED_ATTRS = frozenset({"format", "format_version", "scene", "status", "created",
+                            "n_frames", "channels", "statics", "summary", "error"})
+
+CHUNK_TARGET_BYTES = 1 << 20   # ~1 MiB chunks for the big per-frame channels
+MAX_CHUNK_ROWS = 1024          # scalar series: 8 KiB chunks, not 1 MiB of mostly empty space
+_MAX_COMPACT_ATTRS = 1000      # keep root attributes in the root object header (no dense storage)
+_MAX_FIXED_TEXT = 32 * 1024    # longest fixed-length text attribute (header messages < 64 KiB)
+
+
+def json_text(value: Any) -> str:
+    """Strict JSON text (no NaN/Infinity tokens; non-finite floats become strings, numpy
+    scalars and arrays become numbers and lists)."""
+    return json.dumps(_jsonable(value), allow_nan=False)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return _jsonable(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, (str, int, bool)) or value is None:
+        return value
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    return repr(value)
+
+
+def _attr_value(name: str, value: Any) -> Any:
+    """Python value -> what is stored as an HDF5 attribute: dicts, lists and None become JSON
+    text; str, bool, int, float and small numeric arrays are stored as they are."""
+    if isinstance(value, (dict, list, tuple)) or value is None:
+        return _text(json_text(value))
+    if isinstance(value, str):
+        return _text(value)
+    if isinstance(value, (bool, np.bool_)):
+        return np.bool_(value)
+    if isinstance(value, (int, np.integer)):
+        return np.int64(value)
+    if isinstance(value, (float, np.floating)):
+        return np.float64(value)
+    if isinstance(value, np.ndarray) and value.dtype.kind in "biuf":
+        return value
+    raise TypeError(f"attribute {name!r}: cannot store a {type(value).__name__} "
+                    f"(use str, bool, int, float, a numeric array, or a JSON-able dict/list)")
+
+
+def _text(text: str):
+    """Strings are stored as fixed-length UTF-8 attributes, held entirely in the root object
+    header. Variable-length strings live in HDF5's global heap, which SWMR does not order
+    against the header: a writer killed while replacing one can leave that attribute
+    unreadable (seen in stress tests); a fixed-length one is rewritten with its header. Texts
+    too long for an object header message fall back to variable length."""
+    data = text.encode("utf-8")
+    if len(data) > _MAX_FIXED_TEXT:
+        return text
+    return np.array(data, dtype=h5py.string_dtype("utf-8", max(1, len(data))))
+
+
+def _chunk_rows(row_shape: tuple[int, ...], dtype: np.dtype) -> int:
+    row_bytes = max(1, int(np.prod(row_shape, dtype=np.int64)) * dtype.itemsize)
+    return int(min(MAX_CHUNK_ROWS, max(1, CHUNK_TARGET_BYTES // row_bytes)))
+
+
+def _open_for_writing(path: Path) -> h5py.File:
+    fapl = h5p.create(h5p.FILE_ACCESS)
+    fapl.set_libver_bounds(h5f.LIBVER_LATEST, h5f.LIBVER_LATEST)  # SWMR needs the v110+ format
+    fapl.set_file_locking(False, True)  # readers use locking=False too (must match in-process)
+    fcpl = h5p.create(h5p.FILE_CREATE)
+    fcpl.set_attr_phase_change(_MAX_COMPACT_ATTRS, _MAX_COMPACT_ATTRS - 1)
+    fid = h5f.create(os.fsencode(path), h5f.ACC_TRUNC, fapl=fapl, fcpl=fcpl)
+    return h5py.File(fid)
+
+
+class Recorder:
+    """Writes one run's result file. See the module docstring and ``docs/results.md``."""
+
+    def __init__(self, path, scene_json: str,
+                 channels: dict[str, tuple[tuple[int, ...], str]],
+                 static: dict[str, np.ndarray], attrs: dict | None = None,
+                 flush_every: int = 1):
+        self.path = Path(path)
+        if int(flush_every) < 1:
+            raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
+        self.flush_every = int(flush_every)
+        if not isinstance(scene_json, str):
+            raise TypeError("scene_json must be the scene's JSON text (str)")
+        if not channels:
+            raise ValueError("a result needs at least one channel")
+        self._channels: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+        for name, spec in channels.items():
+            try:
+                shape, dtype = spec
+                shape = tuple(int(n) for n in shape)
+                dtype = np.dtype(dtype)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"channel {name!r}: expected ((per-frame shape), dtype), "
+                                 f"got {spec!r} ({exc})") from None
+            if any(n < 0 for n in shape) or dtype.kind not in "biuf":
+                raise ValueError(f"channel {name!r}: shape {shape} / dtype {dtype} not allowed "
+                                 f"(non-negative sizes, numeric or bool dtype)")
+            self._channels[name] = (shape, dtype)
+        overlap = set(self._channels) & set(static)
+        if overlap:
+            raise ValueError(f"names used both as channel and static: {sorted(overlap)}")
+        extra = dict(attrs or {})
+        bad = RESERVED_ATTRS & set(extra)
+        if bad:
+            raise ValueError(f"attributes {sorted(bad)} are written by the recorder itself")
+
+        self._n_written = 0     # rows written to every channel
+        self._n_committed = 0   # rows counted by the n_frames attribute
+        self._closed = False
+        creating = self.path.with_name(f".{self.path.name}.creating")
+        self._file = _open_for_writing(creating)
+        try:
+            f = self._file
+            f.attrs["format"] = _text(FORMAT)
+            f.attrs["format_version"] = np.int64(FORMAT_VERSION)
+            f.attrs["scene"] = _text(scene_json)
+            f.attrs["status"] = _text("running")
+            f.attrs["created"] = _text(
+                _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+            f.attrs["n_frames"] = np.int64(0)
+            f.attrs["channels"] = _text(json_text(list(self._channels)))
+            f.attrs["statics"] = _text(json_text(list(static)))
+            for key, value in extra.items():
+                f.attrs[key] = _attr_value(key, value)
+            self._datasets = {}
+            for name, (shape, dtype) in self._channels.items():
+                try:
+                    self._datasets[name] = f.create_dataset(
+                        name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype,
+                        chunks=(_chunk_rows(shape, dtype), *shape) if all(shape) else None,
+                        rdcc_nbytes=0)  # no chunk cache: rows go straight to their place
+                except (ValueError, TypeError) as exc:
+                    raise ValueError(f"channel {name!r}: cannot create dataset ({exc})") from None
+            for name, value in static.items():
+                arr = np.asarray(value)
+                if arr.dtype.kind == "U":
+                    arr = arr.astype(object)
+                    f.create_dataset(name, data=arr, dtype=h5py.string_dtype())
+                elif arr.dtype.kind in "biuf":
+                    f.create_dataset(name, data=arr)
+                else:
+                    raise ValueError(f"static {name!r}: dtype {arr.dtype} not allowed "
+                                     f"(numeric, bool or str)")
+            f.flush()
+            f.swmr_mode = True  # from here on the file on disk is always readable
+            os.replace(creating, self.path)  # the open handle follows the inode
+        except BaseException:
+            self._file.close()
+            self._closed = True
+            creating.unlink(missing_ok=True)
+            raise
+
+    # ---------------------------------------------------------------- writing
+    @property
+    def n_frames(self) -> int:
+        """Frames appended so far (committed or not)."""
+        return self._n_written
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def append(self, frame: dict[str, Any]) -> None:
+        """Append one row to every channel. Every channel must be present, with exactly its
+        per-frame shape and a dtype that casts safely (same kind) to the channel's; nothing is
+        written unless the whole frame is valid."""
+        if self._closed:
+            raise ValueError(f"recorder for {self.path} is closed")
+        missing = [n for n in self._channels if n not in frame]
+        unknown = [n for n in frame if n not in self._channels]
+        if missing or unknown:
+            raise ValueError(f"frame {self._n_written}: missing channels {missing}, "
+                             f"unknown channels {unknown}")
+        rows = {}
+        for name, (shape, dtype) in self._channels.items():
+            value = np.asarray(frame[name])
+            if value.shape != shape:
+                raise ValueError(f"channel {name!r}: frame {self._n_written} has shape "
+                                 f"{value.shape}, expected {shape}")
+            if not np.can_cast(value.dtype, dtype, casting="same_kind"):
+                raise ValueError(f"channel {name!r}: frame {self._n_written} has dtype "
+                                 f"{value.dtype}, which does not cast safely to {dtype}")
+            rows[name] = np.ascontiguousarray(value, dtype=dtype)
+        i = self._n_written
+        for name, row in rows.items():
+            ds = self._datasets[name]
+            ds.resize(i + 1, axis=0)
+            ds[i] = row
+        self._n_written = i + 1
+        if self._n_written - self._n_committed >= self.flush_every:
+            self.flush()
+
+    def flush(self) -> None:
+        """Make every appended frame durable and visible: flush rows, then bump n_frames."""
+        if self._closed:
+            return
+        f = self._file
+        f.flush()                       # rows and extents are in the file ...
+        if self._n_committed != self._n_written:
+            f.attrs.modify("n_frames", np.int64(self._n_written))
+            f.flush()                   # ... before n_frames counts them
+            self._n_committed = self._n_written
+
+    def set_attrs(self, **attrs) -> None:
+        """Set root attributes (dicts/lists become JSON text). Flushed at once."""
+        if self._closed:
+            raise ValueError(f"recorder for {self.path} is closed")
+        bad = RESERVED_ATTRS & set(attrs)
+        if bad:
+            raise ValueError(f"attributes {sorted(bad)} are written by the recorder itself")
+        values = {k: _attr_value(k, v) for k, v in attrs.items()}
+        for key, value in values.items():
+            self._file.attrs[key] = value
+        self._file.flush()
+
+    def close(self, status: str, summary: dict | None = None, error: dict | None = None) -> None:
+        """Commit every frame, write ``status`` (and ``summary``/``error`` as JSON text) and
+        close the file. Calling it again does nothing."""
+        if self._closed:
+            return
+        if status not in STATUSES:
+            raise ValueError(f"status must be one of {STATUSES}, got {status!r}")
+        try:
+            self.flush()
+            f = self._file
+            if summary is not None:
+                f.attrs["summary"] = _text(json_text(summary))
+            if error is not None:
+                f.attrs["error"] = _text(json_text(error))
+            f.attrs["status"] = _text(status)
+            f.flush()
+        finally:
+            self._closed = True
+            self._file.close()
+
+    # ---------------------------------------------------------------- context manager
+    def __enter__(self) -> "Recorder":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is None:
+            self.close("completed")
+            return False
+        from .errors import RunCancelled  # local: keep the recorder importable on its own
+        cancelled = isinstance(exc, (RunCancelled, KeyboardInterrupt))
+        self.close("cancelled" if cancelled else "failed", error=error_dict(exc))
+        return False
+
+    def __del__(self):
+        # A recorder dropped without close() leaves status "running" (= interrupted), but
+        # commits the frames it has and closes the file cleanly.
+        try:
+            if not self._closed:
+                self.flush()
+                self._closed = True
+                self._file.close()
+        except Exception:
+            pass
+
+
+def error_dict(exc: BaseException) -> dict:
+    """The ``error`` attribute for an exception: type, message, traceback, and the
+    exception's own ``as_dict()`` fields when it has them (InstabilityError)."""
+    out: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
+    as_dict = getattr(exc, "as_dict", None)
+    if callable(as_dict):
+        try:
+            out.update(as_dict())
+        except Exception:
+            pass
+    as_dicts = getattr(exc, "as_dicts", None)
+    if callable(as_dicts):
+        try:
+            out["problems"] = as_dicts()
+        except Exception:
+            pass
+    out["traceback"] = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+    return out

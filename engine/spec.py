@@ -1,0 +1,511 @@
+"""The scene model: one validated description of a simulation, JSON in and out.
+
+Everything is SI (metres, kilograms, seconds, radians, pascals). The studio converts to
+millimetres and degrees at its own edge. The format is documented in ``docs/scene.md``.
+
+``load_scene`` / ``save_scene`` / ``Scene.model_validate`` are the only ways in; a bad scene
+raises :class:`engine.errors.SceneError` naming every bad field, its value and what is allowed.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Literal, Optional, Union
+
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
+
+from .errors import FieldProblem, SceneError
+
+SCHEMA_VERSION = 1
+_SEP, _FS = "\x1e", "\x1f"  # record/field separators of cross-reference problems
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Vector3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+# --------------------------------------------------------------------------- poses
+class Pose(_Model):
+    """A rigid placement: ``position`` (m) and ``orientation`` as a unit quaternion
+    ``[w, x, y, z]`` rotating local coordinates into world coordinates."""
+
+    position: Vector3 = (0.0, 0.0, 0.0)
+    orientation: tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat] = (1.0, 0.0, 0.0, 0.0)
+
+    @field_validator("orientation")
+    @classmethod
+    def _unit_quaternion(cls, q):
+        norm = math.sqrt(sum(c * c for c in q))
+        if abs(norm - 1.0) > 1e-6:
+            raise ValueError(f"must be a unit quaternion [w, x, y, z] (its norm is {norm:.6g})")
+        return q
+
+
+# --------------------------------------------------------------------------- materials
+class Material(_Model):
+    youngs_modulus: PositiveFloat = Field(description="E, Pa")
+    poisson_ratio: float = Field(0.3, gt=-1.0, lt=0.5, allow_inf_nan=False)
+    density: PositiveFloat = Field(description="kg/m^3")
+    bond_damping: NonNegativeFloat = Field(
+        0.0, le=1.0,
+        description="viscous damping of bristle bonds as a fraction of critical damping of "
+                    "each bond's axial/shear/bending/twisting spring on its two nodes")
+
+
+class ContactPair(_Model):
+    """Contact law between two materials (order does not matter)."""
+
+    materials: tuple[str, str]
+    friction_angle: float = Field(0.0, ge=0.0, lt=math.pi / 2, allow_inf_nan=False,
+                                  description="Coulomb friction angle, rad (seed eq. 3.8)")
+    restitution: float = Field(1.0, gt=0.0, le=1.0, allow_inf_nan=False,
+                               description="normal coefficient of restitution; 1 = no damping")
+    tangential_ratio: float = Field(0.25, gt=0.0, le=1.0, allow_inf_nan=False,
+                                    description="k_t / k_n of the Cundall-Strack law")
+
+
+# --------------------------------------------------------------------------- brushes
+class Brush(_Model):
+    """A grid of bristles clamped to a base. Bristles grow along the base's local +z; the
+    grid's rows run along local x (``columns`` bristles per row, ``pitch[0]`` apart) and the
+    rows are stacked along local y (``rows`` of them, ``pitch[1]`` apart), centred on the
+    base origin. ``staggered`` shifts every odd row by half a pitch along x."""
+
+    name: str = "brush"
+    material: str
+    rows: int = Field(1, ge=1, le=100_000)
+    columns: int = Field(1, ge=1, le=100_000)
+    pitch: tuple[PositiveFloat, PositiveFloat] = (0.003, 0.003)
+    pattern: Literal["grid", "staggered"] = "grid"
+    bristle_length: PositiveFloat
+    root_radius: PositiveFloat
+    tip_radius: PositiveFloat
+    n_nodes: int = Field(8, ge=2, le=4096)
+    tip_variance: NonNegativeFloat = Field(
+        0.0, description="variance (m^2) of the Gaussian perturbation of each tip in the "
+                         "base's x-y plane; the seed used 4e-10")
+    seed: int = Field(0, ge=0, description="random seed of the tip perturbation")
+    base: Pose = Pose()
+    mount: Optional[str] = Field(
+        None, description="name of a body the base is rigidly mounted on (its pose is then "
+                          "relative to that body's frame); None = base fixed in the world")
+
+    @property
+    def n_bristles(self) -> int:
+        return self.rows * self.columns
+
+
+# --------------------------------------------------------------------------- bodies
+class BoxShape(_Model):
+    type: Literal["box"] = "box"
+    size: tuple[PositiveFloat, PositiveFloat, PositiveFloat]
+
+
+class SphereShape(_Model):
+    """Sphere: contacts use the exact sphere; the mesh (icosphere) is for display and mass."""
+
+    type: Literal["sphere"] = "sphere"
+    radius: PositiveFloat
+    subdivisions: int = Field(3, ge=1, le=6)
+
+
+class CylinderShape(_Model):
+    """Cylinder along local z, centred on the origin."""
+
+    type: Literal["cylinder"] = "cylinder"
+    radius: PositiveFloat
+    height: PositiveFloat
+    sections: int = Field(32, ge=3, le=1024)
+
+
+class WedgeShape(_Model):
+    """A triangular prism: its edge (apex) lies on the local x axis from -length/2 to
+    length/2 at the origin, pointing down (-z); its two faces open upwards at ``angle``
+    (the included angle) to a flat top at z = height."""
+
+    type: Literal["wedge"] = "wedge"
+    angle: float = Field(gt=0.0, lt=math.pi, allow_inf_nan=False, description="rad")
+    height: PositiveFloat
+    length: PositiveFloat
+
+
+class MeshFileShape(_Model):
+    """A triangle mesh file (STL, OBJ, PLY), in metres after ``scale``."""
+
+    type: Literal["mesh"] = "mesh"
+    file: str
+    scale: PositiveFloat = 1.0
+
+
+Shape = Annotated[Union[BoxShape, SphereShape, CylinderShape, WedgeShape, MeshFileShape],
+                  Field(discriminator="type")]
+
+
+class MassProperties(_Model):
+    """Either ``density`` (mass, centre of mass and inertia from the closed mesh) or ``mass`` and
+    ``inertia`` (about the centre of mass, in the body frame) given directly."""
+
+    density: Optional[PositiveFloat] = None
+    mass: Optional[PositiveFloat] = None
+    inertia: Optional[tuple[Vector3, Vector3, Vector3]] = None
+    center_of_mass: Optional[Vector3] = Field(
+        None, description="in the mesh frame; default: the mesh's own (density) or its origin")
+
+    @model_validator(mode="after")
+    def _one_way(self):
+        if self.density is None and self.mass is None:
+            raise ValueError("give either density, or mass and inertia")
+        if self.density is not None and (self.mass is not None or self.inertia is not None):
+            raise ValueError("give either density, or mass and inertia, not both")
+        if self.mass is not None and self.inertia is None:
+            raise ValueError("mass needs inertia (3x3, kg m^2, about the centre of mass)")
+        if self.inertia is not None:
+            i = self.inertia
+            if any(abs(i[a][b] - i[b][a]) > 1e-9 * max(1e-300, abs(i[a][b]) + abs(i[b][a]))
+                   for a in range(3) for b in range(3)):
+                raise ValueError("inertia must be symmetric")
+        return self
+
+
+class FixedMotion(_Model):
+    type: Literal["fixed"] = "fixed"
+
+
+class FreeMotion(_Model):
+    """Free 6-DOF rigid body (torque-free tumbling unless touched)."""
+
+    type: Literal["free"] = "free"
+
+
+class HingeMotion(_Model):
+    """Rotation about one axis fixed in the world through ``point``, with the external
+    dissipation of seed eq. 4.6: d(omega)/dt = -k1 omega - k2 sign(omega)."""
+
+    type: Literal["hinge"] = "hinge"
+    axis: Vector3
+    point: Optional[Vector3] = Field(None, description="default: the body's centre of mass")
+    k1: NonNegativeFloat = Field(0.0, description="1/s")
+    k2: NonNegativeFloat = Field(0.0, description="rad/s^2")
+
+    @field_validator("axis")
+    @classmethod
+    def _nonzero(cls, a):
+        if math.sqrt(sum(c * c for c in a)) < 1e-12:
+            raise ValueError("must be a non-zero vector")
+        return a
+
+
+class ConstantProfile(_Model):
+    kind: Literal["constant"] = "constant"
+    velocity: Vector3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vector3 = (0.0, 0.0, 0.0)
+    duration: Optional[PositiveFloat] = Field(None, description="default: the whole run")
+
+
+class SteppedParabolicProfile(_Model):
+    """The wedge test's motion (seed 4.2): ``n_steps`` steps of length ``step`` along
+    ``direction``, each with v(t) = k t (t_d - t), k = a_m / t_d, t_d = sqrt(6 step / a_m);
+    ``dwell`` seconds at rest after each step; then, if ``unload``, the same steps back."""
+
+    kind: Literal["stepped_parabolic"] = "stepped_parabolic"
+    direction: Vector3 = (0.0, 0.0, -1.0)
+    step: PositiveFloat = 0.001
+    max_acceleration: PositiveFloat
+    n_steps: int = Field(ge=1, le=100_000)
+    dwell: NonNegativeFloat = 0.0
+    unload: bool = False
+    start_delay: NonNegativeFloat = 0.0
+
+    @field_validator("direction")
+    @classmethod
+    def _nonzero(cls, a):
+        if math.sqrt(sum(c * c for c in a)) < 1e-12:
+            raise ValueError("must be a non-zero vector")
+        return a
+
+
+class WaypointsProfile(_Model):
+    """Follow poses at given times: position by piecewise-cubic Hermite (Catmull-Rom
+    velocities, zero at both ends), orientation by slerp (constant angular velocity per
+    interval). Before the first time the body holds the first pose."""
+
+    kind: Literal["waypoints"] = "waypoints"
+    times: list[FiniteFloat] = Field(min_length=2)
+    positions: list[Vector3]
+    orientations: Optional[list[tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]]] = None
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if any(b <= a for a, b in zip(self.times, self.times[1:])):
+            raise ValueError("times must increase strictly")
+        if self.times[0] < 0:
+            raise ValueError("times must be >= 0")
+        if len(self.positions) != len(self.times):
+            raise ValueError(f"positions has {len(self.positions)} entries, times "
+                             f"{len(self.times)}: they must match")
+        if self.orientations is not None:
+            if len(self.orientations) != len(self.times):
+                raise ValueError("orientations must have one entry per time")
+            for q in self.orientations:
+                if abs(math.sqrt(sum(c * c for c in q)) - 1.0) > 1e-6:
+                    raise ValueError("orientations must be unit quaternions [w, x, y, z]")
+        return self
+
+
+Profile = Annotated[Union[ConstantProfile, SteppedParabolicProfile, WaypointsProfile],
+                    Field(discriminator="kind")]
+
+
+class KinematicMotion(_Model):
+    """Prescribed motion; ``after`` says what the body does when the profile ends:
+    ``hold`` (stays where it is) or ``free`` (released as a free body with its last velocity;
+    needs mass properties)."""
+
+    type: Literal["kinematic"] = "kinematic"
+    profile: Profile
+    after: Literal["hold", "free"] = "hold"
+
+
+Motion = Annotated[Union[FixedMotion, FreeMotion, HingeMotion, KinematicMotion],
+                   Field(discriminator="type")]
+
+
+class Body(_Model):
+    name: str
+    material: str
+    shape: Shape
+    mass_properties: Optional[MassProperties] = Field(
+        None, description="needed for free, hinge and kinematic-then-free bodies")
+    pose: Pose = Pose()
+    motion: Motion = FixedMotion()
+    velocity: Vector3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vector3 = Field((0.0, 0.0, 0.0), description="world frame, rad/s")
+    collide: bool = Field(True, description="False: a body that only carries brushes")
+
+
+# --------------------------------------------------------------------------- loads
+class LoadProfile(_Model):
+    """Amplitude a(t) multiplying ``Load.force``: piecewise-linear through (times, values)
+    (held constant outside), optionally times sin(2 pi frequency t + phase)."""
+
+    times: list[FiniteFloat] = Field(default_factory=lambda: [0.0])
+    values: list[FiniteFloat] = Field(default_factory=lambda: [1.0])
+    frequency: NonNegativeFloat = 0.0
+    phase: FiniteFloat = 0.0
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if len(self.times) != len(self.values) or not self.times:
+            raise ValueError("times and values must be non-empty and of equal length")
+        if any(b < a for a, b in zip(self.times, self.times[1:])):
+            raise ValueError("times must not decrease")
+        return self
+
+
+class Load(_Model):
+    """An external force on bristle nodes: ``node`` counts from the root (0) and may be
+    negative (-1 = tip); ``bristles`` is a list of bristle indices or "all"."""
+
+    brush: str
+    bristles: Union[Literal["all"], list[Annotated[int, Field(ge=0)]]] = "all"
+    node: int = -1
+    force: Vector3
+    profile: LoadProfile = LoadProfile()
+
+
+# --------------------------------------------------------------------------- environment/run
+class Environment(_Model):
+    gravity: Vector3 = (0.0, 0.0, 0.0)
+    local_damping: float = Field(
+        0.0, ge=0.0, lt=1.0, allow_inf_nan=False,
+        description="Cundall's non-viscous local damping of bristle nodes (0 = none); for "
+                    "quasi-static loading only")
+
+
+Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending"]
+ALL_CHANNELS: tuple[str, ...] = ("nodes", "bodies", "root_force", "energy", "contacts",
+                                 "bending")
+
+
+class StopCondition(_Model):
+    """Stop before ``duration`` when a quantity stays below ``value`` (checked at every record
+    after ``min_time``): ``kinetic_energy`` (J, whole scene) or ``body_angular_speed``
+    (rad/s, needs ``body``)."""
+
+    quantity: Literal["kinetic_energy", "body_angular_speed"]
+    value: PositiveFloat
+    body: Optional[str] = None
+    min_time: NonNegativeFloat = 0.0
+
+
+class RunSettings(_Model):
+    duration: PositiveFloat
+    dt: Optional[PositiveFloat] = Field(None, description="None = automatic")
+    dt_safety: float = Field(0.5, gt=0.0, le=1.0, allow_inf_nan=False,
+                             description="fraction of the stability limit used by automatic dt")
+    record_interval: PositiveFloat = Field(description="s between recorded frames")
+    channels: list[Channel] = Field(default_factory=lambda: list(ALL_CHANNELS))
+    stop: Optional[StopCondition] = None
+    verlet_skin: Optional[PositiveFloat] = Field(
+        None, description="neighbour-list skin, m; default: half the smallest tip radius")
+
+    @field_validator("channels")
+    @classmethod
+    def _unique(cls, c):
+        if len(set(c)) != len(c):
+            raise ValueError("channels must not repeat")
+        return c
+
+
+# --------------------------------------------------------------------------- scene
+class Scene(_Model):
+    schema_version: int = SCHEMA_VERSION
+    name: str = "scene"
+    description: str = ""
+    materials: dict[str, Material]
+    contact_pairs: list[ContactPair] = Field(default_factory=list)
+    brushes: list[Brush] = Field(default_factory=list)
+    bodies: list[Body] = Field(default_factory=list)
+    loads: list[Load] = Field(default_factory=list)
+    environment: Environment = Environment()
+    run: RunSettings
+
+    @field_validator("schema_version")
+    @classmethod
+    def _version(cls, v):
+        if v != SCHEMA_VERSION:
+            raise ValueError(f"this Brush Studio reads schema_version {SCHEMA_VERSION} only")
+        return v
+
+    @model_validator(mode="after")
+    def _cross_references(self):
+        problems: list[tuple[str, object, str]] = []
+        mats = set(self.materials)
+        names = [b.name for b in self.brushes]
+        if len(set(names)) != len(names):
+            problems.append(("brushes", names, "brush names must be unique"))
+        bnames = [b.name for b in self.bodies]
+        if len(set(bnames)) != len(bnames):
+            problems.append(("bodies", bnames, "body names must be unique"))
+        for i, b in enumerate(self.brushes):
+            if b.material not in mats:
+                problems.append((f"brushes.{i}.material", b.material,
+                                 f"must be one of the materials {sorted(mats)}"))
+            if b.mount is not None and b.mount not in bnames:
+                problems.append((f"brushes.{i}.mount", b.mount,
+                                 f"must be one of the bodies {bnames}"))
+            if 2 * max(b.root_radius, b.tip_radius) >= b.bristle_length:
+                problems.append((f"brushes.{i}.bristle_length", b.bristle_length,
+                                 "must exceed the bristle's largest diameter"))
+        for i, body in enumerate(self.bodies):
+            if body.material not in mats:
+                problems.append((f"bodies.{i}.material", body.material,
+                                 f"must be one of the materials {sorted(mats)}"))
+            needs_mass = body.motion.type in ("free", "hinge") or (
+                body.motion.type == "kinematic" and body.motion.after == "free")
+            if needs_mass and body.mass_properties is None:
+                problems.append((f"bodies.{i}.mass_properties", None,
+                                 f"a {body.motion.type} body needs density, or mass and "
+                                 f"inertia"))
+        for i, p in enumerate(self.contact_pairs):
+            for m in p.materials:
+                if m not in mats:
+                    problems.append((f"contact_pairs.{i}.materials", m,
+                                     f"must be one of the materials {sorted(mats)}"))
+        seen = set()
+        for i, p in enumerate(self.contact_pairs):
+            key = frozenset(p.materials)
+            if key in seen:
+                problems.append((f"contact_pairs.{i}.materials", list(p.materials),
+                                 "this pair is given twice"))
+            seen.add(key)
+        for i, load in enumerate(self.loads):
+            if load.brush not in names:
+                problems.append((f"loads.{i}.brush", load.brush,
+                                 f"must be one of the brushes {names}"))
+                continue
+            brush = self.brushes[names.index(load.brush)]
+            if not -brush.n_nodes <= load.node < brush.n_nodes:
+                problems.append((f"loads.{i}.node", load.node,
+                                 f"must lie in [-{brush.n_nodes}, {brush.n_nodes - 1}]"))
+            if load.bristles != "all" and any(k >= brush.n_bristles for k in load.bristles):
+                problems.append((f"loads.{i}.bristles", load.bristles,
+                                 f"indices must be below {brush.n_bristles}"))
+        if self.run.stop is not None and self.run.stop.quantity == "body_angular_speed":
+            if self.run.stop.body not in bnames:
+                problems.append(("run.stop.body", self.run.stop.body,
+                                 f"must be one of the bodies {bnames}"))
+        if problems:
+            raise ValueError(_SEP.join(f"{f}{_FS}{json.dumps(v, default=repr)}{_FS}{m}"
+                                       for f, v, m in problems))
+        return self
+
+    # ----------------------------------------------------------------- helpers
+    def pair(self, a: str, b: str) -> ContactPair:
+        """The contact law between materials a and b (frictionless, elastic if not given)."""
+        for p in self.contact_pairs:
+            if set(p.materials) == {a, b}:
+                return p
+        return ContactPair(materials=(a, b))
+
+    def to_json(self, indent: int = 2) -> str:
+        return self.model_dump_json(indent=indent)
+
+
+# --------------------------------------------------------------------------- I/O
+def _problems_from(err: ValidationError) -> list[FieldProblem]:
+    problems = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"])
+        msg = e["msg"]
+        if msg.startswith("Value error, "):
+            msg = msg[len("Value error, "):]
+        if e["type"] == "value_error" and _FS in msg:
+            for part in msg.split(_SEP):
+                field, value, rest = part.split(_FS)
+                problems.append(FieldProblem(field, json.loads(value), rest))
+            continue
+        problems.append(FieldProblem(loc or "(scene)", e.get("input"), msg))
+    return problems
+
+
+def parse_scene(data: Union[dict, str, bytes]) -> Scene:
+    """Validate a scene given as a dict or JSON text; raise SceneError naming every bad field."""
+    try:
+        if isinstance(data, (str, bytes)):
+            try:
+                data = json.loads(data)
+            except json.JSONDecodeError as exc:
+                raise SceneError.single("(file)", None, f"not valid JSON: {exc}") from None
+        if not isinstance(data, dict):
+            raise SceneError.single("(scene)", type(data).__name__, "must be a JSON object")
+        return Scene.model_validate(data)
+    except ValidationError as err:
+        raise SceneError(_problems_from(err)) from None
+
+
+def load_scene(path: Union[str, Path]) -> Scene:
+    """Read and validate a scene JSON file. Relative mesh paths are resolved against the
+    file's folder."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SceneError.single("(file)", str(path), f"cannot be read: {exc}") from None
+    scene = parse_scene(text)
+    for body in scene.bodies:
+        if body.shape.type == "mesh" and not Path(body.shape.file).is_absolute():
+            body.shape = body.shape.model_copy(
+                update={"file": str((path.parent / body.shape.file).resolve())})
+    return scene
+
+
+def save_scene(scene: Scene, path: Union[str, Path]) -> None:
+    Path(path).write_text(scene.to_json() + "\n")

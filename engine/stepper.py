@@ -1,0 +1,480 @@
+"""The step loop: many velocity-Verlet (kick-drift-kick leapfrog, seed eq. 3.12-3.13) steps
+per call into compiled code. Python only sees the state between calls.
+
+Order of one step: predict whether the neighbour lists stay valid (else rebuild them), half
+kick and drift of nodes and bodies, roots follow their bases, then forces (bonds, external,
+contacts, roots onto mounted bodies, local damping), then the second half kick. Every
+``check_every`` steps the state is checked for instability; every ``time_every`` steps the
+stages are timed (so the run can report where its time goes).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from numba import njit, objmode, prange
+
+from .bodies import FIXED, FREE, HINGE, KINEMATIC, bodies_drift, bodies_half_kick
+from .body_contacts import (body_body_contacts, bristle_body_narrow, build_body_candidates,
+                            carry_body_history, scatter_bristle_body)
+from .bonds import PARALLEL_MIN, bond_forces, gather_bond_forces
+from .contacts import (bristle_bristle_narrow, build_pair_list, carry_history,
+                       scatter_bristle_bristle, segment_bounds)
+from .rotations import qexp, qmul, qnormalize, qrot
+from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
+                    ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
+                    ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
+                    FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
+                    FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK,
+                    OVERFLOW_BODY, OVERFLOW_PAIRS)
+
+
+@njit(cache=True)
+def _clock():
+    with objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+@njit(cache=True, parallel=True)
+def nodes_kick_drift(x, v, q, w, f, t, inv_mass, inv_inertia, dt):
+    if x.shape[0] >= PARALLEL_MIN:
+        for n in prange(x.shape[0]):
+            _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt)
+    else:
+        for n in range(x.shape[0]):
+            _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt)
+
+
+@njit(cache=True, inline="always")
+def _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt):
+    h = 0.5 * dt
+    im = inv_mass[n]
+    if im != 0.0:
+        for a in range(3):
+            v[n, a] += h * f[n, a] * im
+            x[n, a] += dt * v[n, a]
+        ii = inv_inertia[n]
+        w0 = w[n, 0] + h * t[n, 0] * ii
+        w1 = w[n, 1] + h * t[n, 1] * ii
+        w2 = w[n, 2] + h * t[n, 2] * ii
+        w[n, 0] = w0
+        w[n, 1] = w1
+        w[n, 2] = w2
+        ew, ex, ey, ez = qexp(dt * w0, dt * w1, dt * w2)
+        nw, nx, ny, nz = qmul(ew, ex, ey, ez, q[n, 0], q[n, 1], q[n, 2], q[n, 3])
+        q[n, 0], q[n, 1], q[n, 2], q[n, 3] = qnormalize(nw, nx, ny, nz)
+
+
+@njit(cache=True, parallel=True)
+def nodes_kick(v, w, f, t, inv_mass, inv_inertia, dt):
+    h = 0.5 * dt
+    if v.shape[0] >= PARALLEL_MIN:
+        for n in prange(v.shape[0]):
+            im = inv_mass[n]
+            ii = inv_inertia[n]
+            for a in range(3):
+                v[n, a] += h * f[n, a] * im
+                w[n, a] += h * t[n, a] * ii
+    else:
+        for n in range(v.shape[0]):
+            im = inv_mass[n]
+            ii = inv_inertia[n]
+            for a in range(3):
+                v[n, a] += h * f[n, a] * im
+                w[n, a] += h * t[n, a] * ii
+
+
+@njit(cache=True)
+def roots_follow(x, v, q, w, root_node, root_body, local_pos, local_q, bpos, bq, bv, bw):
+    """Roots mounted on a body move rigidly with it (fixed roots never move)."""
+    for r in range(root_node.shape[0]):
+        k = root_body[r]
+        if k < 0:
+            continue
+        n = root_node[r]
+        qw, qx, qy, qz = bq[k, 0], bq[k, 1], bq[k, 2], bq[k, 3]
+        rx, ry, rz = qrot(qw, qx, qy, qz, local_pos[r, 0], local_pos[r, 1], local_pos[r, 2])
+        x[n, 0] = bpos[k, 0] + rx
+        x[n, 1] = bpos[k, 1] + ry
+        x[n, 2] = bpos[k, 2] + rz
+        v[n, 0] = bv[k, 0] + bw[k, 1] * rz - bw[k, 2] * ry
+        v[n, 1] = bv[k, 1] + bw[k, 2] * rx - bw[k, 0] * rz
+        v[n, 2] = bv[k, 2] + bw[k, 0] * ry - bw[k, 1] * rx
+        q[n, 0], q[n, 1], q[n, 2], q[n, 3] = qmul(qw, qx, qy, qz, local_q[r, 0],
+                                                  local_q[r, 1], local_q[r, 2], local_q[r, 3])
+        w[n, 0] = bw[k, 0]
+        w[n, 1] = bw[k, 1]
+        w[n, 2] = bw[k, 2]
+
+
+@njit(cache=True)
+def roots_to_bodies(x, f, t, root_node, root_body, bpos, bf, btq):
+    """The forces on mounted roots act on the body that carries them."""
+    for r in range(root_node.shape[0]):
+        k = root_body[r]
+        if k < 0:
+            continue
+        n = root_node[r]
+        rx = x[n, 0] - bpos[k, 0]
+        ry = x[n, 1] - bpos[k, 1]
+        rz = x[n, 2] - bpos[k, 2]
+        bf[k, 0] += f[n, 0]
+        bf[k, 1] += f[n, 1]
+        bf[k, 2] += f[n, 2]
+        btq[k, 0] += ry * f[n, 2] - rz * f[n, 1] + t[n, 0]
+        btq[k, 1] += rz * f[n, 0] - rx * f[n, 2] + t[n, 1]
+        btq[k, 2] += rx * f[n, 1] - ry * f[n, 0] + t[n, 2]
+
+
+@njit(cache=True)
+def add_gravity(f, mass, inv_mass, g):
+    for n in range(f.shape[0]):
+        if inv_mass[n] > 0.0:
+            f[n, 0] += mass[n] * g[0]
+            f[n, 1] += mass[n] * g[1]
+            f[n, 2] += mass[n] * g[2]
+
+
+@njit(cache=True)
+def load_amplitude(ld, k, time):
+    """Piecewise-linear amplitude of load k (held outside its table), times the optional sine."""
+    a = ld.start[k]
+    b = ld.start[k + 1]
+    if time <= ld.times[a]:
+        amp = ld.values[a]
+    elif time >= ld.times[b - 1]:
+        amp = ld.values[b - 1]
+    else:
+        amp = ld.values[b - 1]
+        for i in range(a, b - 1):
+            if time < ld.times[i + 1]:
+                t0 = ld.times[i]
+                t1 = ld.times[i + 1]
+                if t1 > t0:
+                    amp = ld.values[i] + (ld.values[i + 1] - ld.values[i]) * (time - t0) / (t1 - t0)
+                else:
+                    amp = ld.values[i + 1]
+                break
+    if ld.frequency[k] > 0.0:
+        amp *= math.sin(2.0 * math.pi * ld.frequency[k] * time + ld.phase[k])
+    return amp
+
+
+@njit(cache=True)
+def add_loads(ld, f, v, time, dt):
+    """External loads on nodes; returns their work over this step (F . v dt)."""
+    for k in range(ld.force.shape[0]):
+        ld.amp[k] = load_amplitude(ld, k, time)
+    work = 0.0
+    for e in range(ld.node.shape[0]):
+        n = ld.node[e]
+        k = ld.load[e]
+        a = ld.amp[k]
+        fx = a * ld.force[k, 0]
+        fy = a * ld.force[k, 1]
+        fz = a * ld.force[k, 2]
+        f[n, 0] += fx
+        f[n, 1] += fy
+        f[n, 2] += fz
+        work += (fx * v[n, 0] + fy * v[n, 1] + fz * v[n, 2]) * dt
+    return work
+
+
+@njit(cache=True)
+def local_damping(f, t, v, w, inv_mass, alpha, dt):
+    """Cundall's non-viscous damping: each force component is reduced by alpha |F| against
+    the velocity. Returns the energy it dissipated this step."""
+    diss = 0.0
+    for n in range(f.shape[0]):
+        if inv_mass[n] == 0.0:
+            continue
+        for a in range(3):
+            fa = f[n, a]
+            va = v[n, a]
+            if va > 0.0:
+                f[n, a] = fa - alpha * abs(fa)
+            elif va < 0.0:
+                f[n, a] = fa + alpha * abs(fa)
+            ta = t[n, a]
+            wa = w[n, a]
+            if wa > 0.0:
+                t[n, a] = ta - alpha * abs(ta)
+            elif wa < 0.0:
+                t[n, a] = ta + alpha * abs(ta)
+            diss += alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
+    return diss
+
+
+@njit(cache=True)
+def predicted_displacement(nd, bd, dt):
+    """Upper bound of how far any node and any body centre will be from where the
+    neighbour lists were built, after the next drift."""
+    worst = 0.0
+    for n in range(nd.x.shape[0]):
+        dx = nd.x[n, 0] - nd.x_build[n, 0]
+        dy = nd.x[n, 1] - nd.x_build[n, 1]
+        dz = nd.x[n, 2] - nd.x_build[n, 2]
+        im = nd.inv_mass[n]
+        vx = nd.v[n, 0] + 0.5 * dt * nd.f[n, 0] * im
+        vy = nd.v[n, 1] + 0.5 * dt * nd.f[n, 1] * im
+        vz = nd.v[n, 2] + 0.5 * dt * nd.f[n, 2] * im
+        d = math.sqrt(dx * dx + dy * dy + dz * dz) + dt * math.sqrt(vx * vx + vy * vy + vz * vz)
+        if d > worst:
+            worst = d
+    wb = 0.0
+    for k in range(bd.pos.shape[0]):
+        dx = bd.pos[k, 0] - bd.pos_build[k, 0]
+        dy = bd.pos[k, 1] - bd.pos_build[k, 1]
+        dz = bd.pos[k, 2] - bd.pos_build[k, 2]
+        sp = math.sqrt(bd.v[k, 0] ** 2 + bd.v[k, 1] ** 2 + bd.v[k, 2] ** 2)
+        d = math.sqrt(dx * dx + dy * dy + dz * dz) + 2.0 * dt * sp
+        if d > wb:
+            wb = d
+    return worst + wb
+
+
+@njit(cache=True)
+def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
+    """Rebuild the neighbour lists from the current positions, keeping contact history.
+    Returns OK or an overflow code (then nothing was changed)."""
+    segment_bounds(nd.x, nd.rad, bn.i, bn.j, bn.mid, bn.bound)
+    if fl.bristle_bristle:
+        n_new = build_pair_list(bn.mid, bn.bound, bn.bristle, skin, pl.a2, pl.b2)
+        if n_new > pl.a2.shape[0]:
+            pl.n[1] = n_new
+            return OVERFLOW_PAIRS
+    if fl.bristle_body:
+        m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
+                                      bd.collide, skin, bl.s2, bl.b2)
+        if m_new > bl.s2.shape[0]:
+            bl.n[1] = m_new
+            return OVERFLOW_BODY
+    if fl.bristle_bristle:
+        if fl.friction_bristle:
+            carry_history(pl.a, pl.b, pl.ft, pl.n[0], pl.a2, pl.b2, pl.ft2, n_new,
+                          bn.i.shape[0])
+            pl.ft[:n_new] = pl.ft2[:n_new]
+        pl.a[:n_new] = pl.a2[:n_new]
+        pl.b[:n_new] = pl.b2[:n_new]
+        pl.n[0] = n_new
+    if fl.bristle_body:
+        if fl.friction_body:
+            carry_body_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
+                               bd.pos.shape[0])
+            bl.ft[:m_new] = bl.ft2[:m_new]
+        bl.s[:m_new] = bl.s2[:m_new]
+        bl.b[:m_new] = bl.b2[:m_new]
+        bl.n[0] = m_new
+    nd.x_build[:] = nd.x
+    bd.pos_build[:] = bd.pos
+    return OK
+
+
+@njit(cache=True)
+def check_state(nd, bd, fl, acc, err, dt, limits, time):
+    """Instability checks; returns a failure code (err gets [index, value, limit])."""
+    for n in range(nd.x.shape[0]):
+        ok = True
+        for a in range(3):
+            if not (math.isfinite(nd.x[n, a]) and math.isfinite(nd.v[n, a])
+                    and math.isfinite(nd.w[n, a])):
+                ok = False
+        if not ok:
+            err[0] = n
+            err[1] = np.nan
+            err[2] = 0.0
+            return FAIL_NONFINITE_NODE
+        if nd.inv_mass[n] > 0.0:
+            sp = math.sqrt(nd.v[n, 0] ** 2 + nd.v[n, 1] ** 2 + nd.v[n, 2] ** 2)
+            if sp * dt > limits[1] * nd.rad[n]:
+                err[0] = n
+                err[1] = sp * dt
+                err[2] = limits[1] * nd.rad[n]
+                return FAIL_NODE_SPEED
+    for k in range(bd.pos.shape[0]):
+        for a in range(3):
+            if not (math.isfinite(bd.pos[k, a]) and math.isfinite(bd.v[k, a])
+                    and math.isfinite(bd.w[k, a])):
+                err[0] = k
+                err[1] = np.nan
+                err[2] = 0.0
+                return FAIL_NONFINITE_BODY
+        if bd.collide[k] and (fl.bristle_body or fl.body_body):
+            sp = math.sqrt(bd.v[k, 0] ** 2 + bd.v[k, 1] ** 2 + bd.v[k, 2] ** 2)
+            om = math.sqrt(bd.w[k, 0] ** 2 + bd.w[k, 1] ** 2 + bd.w[k, 2] ** 2)
+            step = (sp + om * bd.bound_r[k]) * dt
+            if step > limits[2]:
+                err[0] = k
+                err[1] = step
+                err[2] = limits[2]
+                return FAIL_BODY_SPEED
+    return OK
+
+
+@njit(cache=True)
+def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits):
+    """Advance the system by up to ``n_steps`` steps. ``acc`` holds the time, the step count
+    and the running energy/contact totals; ``limits`` = [max overlap / radius, max node step
+    / radius, max body step (m), skin (m), local damping]. Returns (code, steps done)."""
+    skin = limits[3]
+    stats = np.zeros(5)
+    for it in range(n_steps):
+        timed = fl.time_every > 0 and (int(acc[ACC_STEPS]) % fl.time_every == 0)
+        if timed:
+            c0 = _clock()
+        # ---- neighbour lists valid for the coming drift?
+        if fl.bristle_bristle or fl.bristle_body:
+            if predicted_displacement(nd, bd, dt) > 0.5 * skin:
+                code = rebuild_lists(nd, bn, bd, pl, bl, fl, skin)
+                if code != OK:
+                    return code, it
+                acc[ACC_REBUILDS] += 1
+        if timed:
+            c1 = _clock()
+            stage_time[1] += c1 - c0
+        # ---- half kick + drift
+        nodes_kick_drift(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
+        t_new = acc[ACC_TIME] + dt
+        if fl.rigid_bodies:
+            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
+                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
+                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc)
+            bodies_drift(dt, t_new, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.Ip,
+                         bd.hinge_axis, bd.hinge_point, bd.after_free, bd.seg_start, bd.t0,
+                         bd.t1, bd.p0, bd.p1, bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor)
+        if fl.mounted_roots:
+            roots_follow(nd.x, nd.v, nd.q, nd.w, rt.node, rt.body, rt.local_pos, rt.local_q,
+                         bd.pos, bd.q, bd.v, bd.w)
+        acc[ACC_TIME] = t_new
+        if timed:
+            c2 = _clock()
+            stage_time[0] += c2 - c1
+        # ---- forces
+        last = it == n_steps - 1
+        want_energy = fl.track_energy and (last or fl.bond_damping)
+        if fl.bonds:
+            bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.kt, bn.L0,
+                        bn.cn, bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss,
+                        bn.bend, fl.bond_damping, want_energy, dt)
+            gather_bond_forces(nd.bond_prev, nd.bond_next, bn.f, bn.ti, bn.tj, nd.f, nd.t)
+            if fl.track_energy and fl.bond_damping:
+                acc[ACC_DISSIPATED] += bn.diss.sum()
+        else:
+            nd.f[:] = 0.0
+            nd.t[:] = 0.0
+        if timed:
+            c3 = _clock()
+            stage_time[2] += c3 - c2
+        if fl.rigid_bodies or fl.bristle_body or fl.mounted_roots:
+            bd.f[:] = 0.0
+            bd.tq[:] = 0.0
+        if fl.gravity:
+            add_gravity(nd.f, nd.mass, nd.inv_mass, tb.gravity)
+        if fl.loads:
+            acc[ACC_WORK] += add_loads(ld, nd.f, nd.v, t_new, dt)
+        if timed:
+            c4 = _clock()
+            stage_time[6] += c4 - c3
+        if fl.bristle_bristle:
+            n_pairs = pl.n[0]
+            bristle_bristle_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, bn.has_next,
+                                   bn.material, pl.a, pl.b, n_pairs, pl.ft,
+                                   fl.friction_bristle, tb.E, tb.mu, tb.kt, tb.zeta,
+                                   pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
+                                   pl.ratio, dt)
+            scatter_bristle_bristle(nd.x, nd.f, nd.t, bn.i, bn.j, pl.a, pl.b, n_pairs,
+                                    pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
+                                    pl.ratio, stats)
+            acc[ACC_N_BB] = stats[0]
+            acc[ACC_E_BB] = stats[1]
+            acc[ACC_DISSIPATED] += stats[2]
+            if stats[3] > limits[0]:
+                p = int(stats[4])
+                err[0] = pl.a[p]
+                err[1] = stats[3]
+                err[2] = pl.b[p]
+                return FAIL_OVERLAP_BB, it + 1
+            acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
+        if timed:
+            c5 = _clock()
+            stage_time[3] += c5 - c4
+        if fl.bristle_body:
+            n_cand = bl.n[0]
+            bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, bn.has_next,
+                                bn.material, bl.s, bl.b, n_cand, bl.ft, fl.friction_body,
+                                bl.local, bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion,
+                                bd.sphere_r, bd.watertight, bd.material, bd.verts, bd.tris,
+                                bd.tnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
+                                bd.grid_base, bd.grid_start, bd.grid_tris, tb.E, tb.mu, tb.kt, tb.zeta,
+                                bl.active, bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio,
+                                dt)
+            scatter_bristle_body(nd.x, nd.f, nd.t, bn.i, bn.j, bl.s, bl.b, n_cand, bl.active,
+                                 bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio, bd.pos,
+                                 bd.f, bd.tq, stats)
+            acc[ACC_N_BODY] = stats[0]
+            acc[ACC_E_BODY] = stats[1]
+            acc[ACC_DISSIPATED] += stats[2]
+            if stats[3] > limits[0]:
+                c = int(stats[4])
+                err[0] = bl.s[c]
+                err[1] = stats[3]
+                err[2] = bl.b[c]
+                return FAIL_OVERLAP_BODY, it + 1
+            acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
+        if timed:
+            c6 = _clock()
+            stage_time[4] += c6 - c5
+        if fl.body_body:
+            body_body_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.sphere_r,
+                               bd.watertight, bd.material, bd.collide, bd.verts, bd.tris,
+                               bd.tnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
+                               bd.grid_base, bd.grid_start, bd.grid_tris, tb.E, tb.mu, tb.kt, tb.zeta,
+                               bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
+                               stats, dt)
+            acc[ACC_N_BODYBODY] = stats[0]
+            acc[ACC_E_BODYBODY] = stats[1]
+            acc[ACC_DISSIPATED] += stats[2]
+            if stats[3] > limits[0]:
+                err[0] = -1
+                err[1] = stats[3]
+                err[2] = limits[0]
+                return FAIL_OVERLAP_BODYBODY, it + 1
+        if timed:
+            c7 = _clock()
+            stage_time[5] += c7 - c6
+        if fl.mounted_roots:
+            roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
+        if fl.local_damping:
+            acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
+                                                 limits[4], dt)
+        if fl.track_energy and (fl.bristle_body or fl.mounted_roots):
+            # work done by whatever drives kinematic bodies against the contact forces
+            for k in range(bd.pos.shape[0]):
+                if bd.motion[k] == KINEMATIC:
+                    acc[ACC_WORK] -= dt * (bd.f[k, 0] * bd.v[k, 0] + bd.f[k, 1] * bd.v[k, 1]
+                                           + bd.f[k, 2] * bd.v[k, 2] + bd.tq[k, 0] * bd.w[k, 0]
+                                           + bd.tq[k, 1] * bd.w[k, 1]
+                                           + bd.tq[k, 2] * bd.w[k, 2])
+        if timed:
+            c8 = _clock()
+            stage_time[6] += c8 - c7
+        # ---- second half kick
+        nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
+        if fl.rigid_bodies:
+            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
+                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
+                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc)
+        acc[ACC_STEPS] += 1
+        if timed:
+            c9 = _clock()
+            stage_time[0] += c9 - c8
+        if last or (int(acc[ACC_STEPS]) % fl.check_every == 0):
+            code = check_state(nd, bd, fl, acc, err, dt, limits, t_new)
+            if code != OK:
+                return code, it + 1
+        if timed:
+            stage_time[7] += _clock() - c9
+            acc[ACC_TIMED_STEPS] += 1
+    return OK, n_steps
