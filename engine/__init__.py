@@ -14,7 +14,11 @@ Errors: :class:`SceneError` (bad input: field, value, what is allowed),
 :class:`InstabilityError` (quantity, where, time, what to change), both
 :class:`BrushStudioError`.
 """
-from .build import System, build
+from ._cache import ensure_fresh_cache
+
+ensure_fresh_cache()
+
+from .build import System, build  # noqa: E402
 from .errors import BrushStudioError, InstabilityError, SceneError
 from .results import ResultFile, open_result
 from .run import Progress, RunResult, angular_momentum, energies, linear_momentum, run

@@ -16,19 +16,24 @@ from numba import njit, prange
 from .bodies import FIXED, KINEMATIC
 from .bonds import PARALLEL_MIN
 from .contact_law import contact_force, normal_stiffness
-from .contacts import add_segment_force
+from .contacts import add_segment_force, joint_owned_elsewhere
 from .geometry import point_triangle_closest, segment_point_closest, segment_triangle_closest
 from .rotations import qrot, qrot_inv
 
 
 @njit(cache=True)
-def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b):
-    """(segment, body) pairs whose bounding spheres are closer than ``skin``, sorted by
-    (segment, body). Segments of a brush mounted on a body never touch that body."""
+def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
+                          x, bi, bj, seg_rmax, q, sphere_r, verts, tris, tnormal, grid_origin, grid_cell,
+                          grid_dims, grid_base, grid_start, grid_tris, local):
+    """(segment, body) pairs whose capsule and body surface are closer than ``skin``, sorted
+    by (segment, body); the bounding spheres prefilter. Segments of a brush mounted on a body
+    never touch that body. ``local`` is (2, 3) scratch."""
     ns = mid.shape[0]
     nk = pos.shape[0]
     cap = out_s.shape[0]
     n = 0
+    l0 = local[0]
+    l1 = local[1]
     for s in range(ns):
         for k in range(nk):
             if not collide[k] or seg_mount[s] == k:
@@ -37,12 +42,42 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
             dy = mid[s, 1] - pos[k, 1]
             dz = mid[s, 2] - pos[k, 2]
             lim = bound[s] + bound_r[k] + skin
-            if dx * dx + dy * dy + dz * dz < lim * lim:
+            if dx * dx + dy * dy + dz * dz >= lim * lim:
+                continue
+            i0 = bi[s]
+            i1 = bj[s]
+            reach = seg_rmax[s] + skin
+            if sphere_r[k] > 0.0:
+                u = segment_point_closest(x[i0], x[i1], pos[k])
+                ex = x[i0, 0] + u * (x[i1, 0] - x[i0, 0]) - pos[k, 0]
+                ey = x[i0, 1] + u * (x[i1, 1] - x[i0, 1]) - pos[k, 1]
+                ez = x[i0, 2] + u * (x[i1, 2] - x[i0, 2]) - pos[k, 2]
+                near = math.sqrt(ex * ex + ey * ey + ez * ez) < sphere_r[k] + reach
+            else:
+                qw, qx, qy, qz = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
+                l0[0], l0[1], l0[2] = qrot_inv(qw, qx, qy, qz, x[i0, 0] - pos[k, 0],
+                                               x[i0, 1] - pos[k, 1], x[i0, 2] - pos[k, 2])
+                l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - pos[k, 0],
+                                               x[i1, 1] - pos[k, 1], x[i1, 2] - pos[k, 2])
+                tri, _s, _u, _v, _w, d = closest_triangle(k, l0, l1, reach, verts, tris, tnormal,
+                                                          grid_origin, grid_cell, grid_dims,
+                                                          grid_base, grid_start, grid_tris)
+                # a segment inside a closed body is far from every face but must stay listed
+                near = (tri >= 0 and d < reach) or _inside_bound(l0, l1, bound_r[k])
+            if near:
                 if n < cap:
                     out_s[n] = s
                     out_b[n] = k
                 n += 1
     return n
+
+
+@njit(cache=True, inline="always")
+def _inside_bound(l0, l1, r):
+    """Either end of the segment inside the body's bounding sphere by more than half of it
+    (deep penetration that a surface distance would miss)."""
+    h = 0.25 * r * r
+    return (l0[0] ** 2 + l0[1] ** 2 + l0[2] ** 2 < h) or (l1[0] ** 2 + l1[1] ** 2 + l1[2] ** 2 < h)
 
 
 @njit(cache=True)
@@ -52,21 +87,19 @@ def carry_body_history(old_s, old_b, old_ft, n_old, new_s, new_b, new_ft, n_new,
         key = new_s[c] * nk + new_b[c]
         while i < n_old and old_s[i] * nk + old_b[i] < key:
             i += 1
-        if i < n_old and old_s[i] * nk + old_b[i] == key:
-            new_ft[c, 0] = old_ft[i, 0]
-            new_ft[c, 1] = old_ft[i, 1]
-            new_ft[c, 2] = old_ft[i, 2]
-        else:
-            new_ft[c, 0] = 0.0
-            new_ft[c, 1] = 0.0
-            new_ft[c, 2] = 0.0
+        found = i < n_old and old_s[i] * nk + old_b[i] == key
+        for m in range(BSLOT):
+            for a in range(3):
+                new_ft[c * BSLOT + m, a] = old_ft[i * BSLOT + m, a] if found else 0.0
 
 
 @njit(cache=True)
-def closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin, grid_cell, grid_dims,
-                     grid_base, grid_start, grid_tris):
+def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_cell,
+                     grid_dims, grid_base, grid_start, grid_tris):
     """Closest triangle of body k to the segment l0-l1 (body frame) among the grid cells its
-    box (inflated by rmax) overlaps. Returns (tri, s, u, v, w, dist); tri = -1 if none."""
+    box (inflated by rmax) overlaps, ignoring triangles whose plane both ends of the segment
+    are farther than rmax from (on the same side): they cannot be within rmax. Returns
+    (tri, s, u, v, w, dist); tri = -1 if none."""
     lo = grid_origin[k]
     cell = grid_cell[k]
     best = -1
@@ -96,6 +129,14 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin, grid_cell, grid_
                 cc = grid_base[k] + (e0 * d1 + e1) * d2 + e2
                 for idx in range(grid_start[cc], grid_start[cc + 1]):
                     tri = grid_tris[idx]
+                    a0 = verts[tris[tri, 0]]
+                    nx = tnormal[tri, 0]
+                    ny = tnormal[tri, 1]
+                    nz = tnormal[tri, 2]
+                    h0 = nx * (l0[0] - a0[0]) + ny * (l0[1] - a0[1]) + nz * (l0[2] - a0[2])
+                    h1 = nx * (l1[0] - a0[0]) + ny * (l1[1] - a0[1]) + nz * (l1[2] - a0[2])
+                    if (h0 > rmax and h1 > rmax) or (h0 < -rmax and h1 < -rmax):
+                        continue
                     s, u, v, w, d = segment_triangle_closest(
                         l0, l1, verts[tris[tri, 0]], verts[tris[tri, 1]], verts[tris[tri, 2]])
                     if d < bd:
@@ -105,194 +146,250 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin, grid_cell, grid_
                         bu = u
                         bv = v
                         bw = w
+    if bd > rmax:
+        # nothing within reach (a pruned search does not know the true closest beyond it)
+        return -1, bs, bu, bv, bw, bd
     return best, bs, bu, bv, bw, bd
 
 
+BSLOT = 3          # contacts a (segment, body) candidate holds: two nodes + one interior
+BODY_CROSS_END = 0.25
+
+
 @njit(cache=True, parallel=True)
-def bristle_body_narrow(x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                        cs, cb, n_cand, ft, friction, local,
+def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
+                        seg_material, cs, cb, n_cand, ft, friction, local,
                         bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
                         verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base,
                         grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
                         active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
-    """Capsule-body contacts of the first ``n_cand`` candidates; ``fc`` is the force on the
-    segment (the body gets ``-fc`` at ``cp``). ``local`` is (capacity, 2, 3) scratch."""
+    """Bristle-body contacts of the first ``n_cand`` candidates, up to ``BSLOT`` each:
+    slot 0 the segment's start node (a sphere of the node's radius) against the body, slot 1
+    the tip node of a bristle's last segment, slot 2 the segment between its nodes against an
+    edge or vertex of the mesh (or a sphere body), weighted smoothly to zero towards the
+    segment's ends where the node contacts take over. A bristle lying along a face therefore
+    touches it at every node (a line contact), and a wedge's edge across a bristle touches it
+    between nodes. ``fc`` is the force on the segment (the body gets ``-fc`` at ``cp``)."""
     if n_cand >= PARALLEL_MIN:
         for c in prange(n_cand):
-            _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, cs, cb, n_cand, ft, friction, local, bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material, verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+            _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
+                                    cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
+                                    motion, sphere_r, watertight, body_material, verts, tris,
+                                    tnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                                    grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
     else:
         for c in range(n_cand):
-            _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, cs, cb, n_cand, ft, friction, local, bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material, verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+            _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
+                                    cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
+                                    motion, sphere_r, watertight, body_material, verts, tris,
+                                    tnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                                    grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
 
+
+@njit(cache=True, inline="always")
+def _fade(u):
+    if u <= 0.0:
+        return 0.0
+    if u >= 1.0:
+        return 1.0
+    return u * u * (3.0 - 2.0 * u)
 
 
 @njit(cache=True)
-def _bristle_body_narrow_one(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                        cs, cb, n_cand, ft, friction, local,
-                        bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
-                        verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base,
-                        grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
-                        active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
+def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
+                            cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
+                            sphere_r, watertight, body_material, verts, tris, tnormal,
+                            grid_origin, grid_cell, grid_dims, grid_base, grid_start,
+                            grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
+                            par_s, energy, diss, overlap_ratio, dt):
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
     i1 = bj[sg]
-    active[c] = 0
     qw = bq[k, 0]
     qx = bq[k, 1]
     qy = bq[k, 2]
     qz = bq[k, 3]
-    if sphere_r[k] > 0.0:
-        s = segment_point_closest(x[i0], x[i1], bpos[k])
-        if s >= 1.0 and seg_has_next[sg]:
+    l0 = local[c, 0]
+    l1 = local[c, 1]
+    l0[0], l0[1], l0[2] = qrot_inv(qw, qx, qy, qz, x[i0, 0] - bpos[k, 0],
+                                   x[i0, 1] - bpos[k, 1], x[i0, 2] - bpos[k, 2])
+    l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - bpos[k, 0],
+                                   x[i1, 1] - bpos[k, 1], x[i1, 2] - bpos[k, 2])
+    for slot_k in range(BSLOT):
+        slot = c * BSLOT + slot_k
+        active[slot] = 0
+        if slot_k == 1 and seg_has_next[sg]:
             if friction:
-                ft[c, 0] = 0.0
-                ft[c, 1] = 0.0
-                ft[c, 2] = 0.0
-            return
-        px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
-        py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
-        pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
-        r = rad[i0] + s * (rad[i1] - rad[i0])
-        dx = px - bpos[k, 0]
-        dy = py - bpos[k, 1]
-        dz = pz - bpos[k, 2]
-        d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        ov = r + sphere_r[k] - d
-        if ov <= 0.0:
-            if friction:
-                ft[c, 0] = 0.0
-                ft[c, 1] = 0.0
-                ft[c, 2] = 0.0
-            return
-        if d > 1e-12 * sphere_r[k]:
-            nx = dx / d
-            ny = dy / d
-            nz = dz / d
-        else:
-            nx, ny, nz = 0.0, 0.0, 1.0
-        hcp = r - 0.5 * ov
-        cx = px - nx * hcp
-        cy = py - ny * hcp
-        cz = pz - nz * hcp
-    else:
-        l0 = local[c, 0]
-        l1 = local[c, 1]
-        l0[0], l0[1], l0[2] = qrot_inv(qw, qx, qy, qz, x[i0, 0] - bpos[k, 0],
-                                       x[i0, 1] - bpos[k, 1], x[i0, 2] - bpos[k, 2])
-        l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - bpos[k, 0],
-                                       x[i1, 1] - bpos[k, 1], x[i1, 2] - bpos[k, 2])
-        rmax = max(rad[i0], rad[i1])
-        tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, grid_origin,
-                                                grid_cell, grid_dims, grid_base,
-                                                grid_start, grid_tris)
-        if tri < 0 or (s >= 1.0 and seg_has_next[sg]):
-            if friction:
-                ft[c, 0] = 0.0
-                ft[c, 1] = 0.0
-                ft[c, 2] = 0.0
-            return
-        r = rad[i0] + s * (rad[i1] - rad[i0])
-        psx = l0[0] + s * (l1[0] - l0[0])
-        psy = l0[1] + s * (l1[1] - l0[1])
-        psz = l0[2] + s * (l1[2] - l0[2])
-        a = verts[tris[tri, 0]]
-        b = verts[tris[tri, 1]]
-        cc = verts[tris[tri, 2]]
-        ptx = u * a[0] + vv * b[0] + ww * cc[0]
-        pty = u * a[1] + vv * b[1] + ww * cc[1]
-        ptz = u * a[2] + vv * b[2] + ww * cc[2]
-        gx = psx - ptx
-        gy = psy - pty
-        gz = psz - ptz
-        fnx = tnormal[tri, 0]
-        fny = tnormal[tri, 1]
-        fnz = tnormal[tri, 2]
-        side = gx * fnx + gy * fny + gz * fnz
-        if watertight[k] and side < 0.0:
-            # the axis point lies inside a closed body: push it out along the face normal
-            ov = r + d
-            nlx, nly, nlz = fnx, fny, fnz
-        else:
-            ov = r - d
-            if ov <= 0.0:
+                ft[slot, 0] = 0.0
+                ft[slot, 1] = 0.0
+                ft[slot, 2] = 0.0
+            continue
+        weight = 1.0
+        if sphere_r[k] > 0.0:
+            if slot_k == 0:
+                s = 0.0
+            elif slot_k == 1:
+                s = 1.0
+            else:
+                s = segment_point_closest(x[i0], x[i1], bpos[k])
+                weight = _fade(min(s, 1.0 - s) / BODY_CROSS_END)
+            px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
+            py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
+            pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
+            r = rad[i0] + s * (rad[i1] - rad[i0])
+            dx = px - bpos[k, 0]
+            dy = py - bpos[k, 1]
+            dz = pz - bpos[k, 2]
+            d = math.sqrt(dx * dx + dy * dy + dz * dz)
+            ov = r + sphere_r[k] - d
+            if ov <= 0.0 or weight <= 0.0:
                 if friction:
-                    ft[c, 0] = 0.0
-                    ft[c, 1] = 0.0
-                    ft[c, 2] = 0.0
-                return
-            if d > 1e-9 * r:
-                nlx = gx / d
-                nly = gy / d
-                nlz = gz / d
-            elif fnx * fnx + fny * fny + fnz * fnz > 0.0:
+                    ft[slot, 0] = 0.0
+                    ft[slot, 1] = 0.0
+                    ft[slot, 2] = 0.0
+                continue
+            if d > 1e-12 * sphere_r[k]:
+                nx = dx / d
+                ny = dy / d
+                nz = dz / d
+            else:
+                nx, ny, nz = 0.0, 0.0, 1.0
+            hcp = r - 0.5 * ov
+            cx = px - nx * hcp
+            cy = py - ny * hcp
+            cz = pz - nz * hcp
+        else:
+            if slot_k == 0:
+                tri, s, u, vv, ww, d = closest_triangle(k, l0, l0, rad[i0], verts, tris,
+                                                        tnormal, grid_origin, grid_cell,
+                                                        grid_dims, grid_base, grid_start,
+                                                        grid_tris)
+                s = 0.0
+            elif slot_k == 1:
+                tri, s, u, vv, ww, d = closest_triangle(k, l1, l1, rad[i1], verts, tris,
+                                                        tnormal, grid_origin, grid_cell,
+                                                        grid_dims, grid_base, grid_start,
+                                                        grid_tris)
+                s = 1.0
+            else:
+                rmax = max(rad[i0], rad[i1])
+                tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, tnormal,
+                                                        grid_origin, grid_cell, grid_dims,
+                                                        grid_base, grid_start, grid_tris)
+                # between the nodes only against edges and vertices: a face touching a
+                # segment's interior touches (or soon touches) its nodes too
+                if tri >= 0 and min(u, min(vv, ww)) > 1e-9:
+                    tri = -1
+                weight = _fade(min(s, 1.0 - s) / BODY_CROSS_END)
+            if tri < 0 or weight <= 0.0:
+                if friction:
+                    ft[slot, 0] = 0.0
+                    ft[slot, 1] = 0.0
+                    ft[slot, 2] = 0.0
+                continue
+            r = rad[i0] + s * (rad[i1] - rad[i0])
+            psx = l0[0] + s * (l1[0] - l0[0])
+            psy = l0[1] + s * (l1[1] - l0[1])
+            psz = l0[2] + s * (l1[2] - l0[2])
+            a = verts[tris[tri, 0]]
+            b = verts[tris[tri, 1]]
+            cc = verts[tris[tri, 2]]
+            ptx = u * a[0] + vv * b[0] + ww * cc[0]
+            pty = u * a[1] + vv * b[1] + ww * cc[1]
+            ptz = u * a[2] + vv * b[2] + ww * cc[2]
+            gx = psx - ptx
+            gy = psy - pty
+            gz = psz - ptz
+            d = math.sqrt(gx * gx + gy * gy + gz * gz)
+            fnx = tnormal[tri, 0]
+            fny = tnormal[tri, 1]
+            fnz = tnormal[tri, 2]
+            side = gx * fnx + gy * fny + gz * fnz
+            if watertight[k] and side < 0.0:
+                # the axis point lies inside a closed body: push it out along the face normal
+                ov = r + d
                 nlx, nly, nlz = fnx, fny, fnz
             else:
-                nn = math.sqrt(psx * psx + psy * psy + psz * psz)
-                if nn > 0.0:
-                    nlx, nly, nlz = psx / nn, psy / nn, psz / nn
+                ov = r - d
+                if d > 1e-9 * r:
+                    nlx = gx / d
+                    nly = gy / d
+                    nlz = gz / d
+                elif fnx * fnx + fny * fny + fnz * fnz > 0.0:
+                    nlx, nly, nlz = fnx, fny, fnz
                 else:
-                    nlx, nly, nlz = 0.0, 0.0, 1.0
-        if ov <= 0.0:
-            return
-        # contact point: middle of the overlap, between the body surface and the capsule's
-        clx = ptx + 0.5 * (gx - nlx * r)
-        cly = pty + 0.5 * (gy - nly * r)
-        clz = ptz + 0.5 * (gz - nlz * r)
-        nx, ny, nz = qrot(qw, qx, qy, qz, nlx, nly, nlz)
-        cx, cy, cz = qrot(qw, qx, qy, qz, clx, cly, clz)
-        cx += bpos[k, 0]
-        cy += bpos[k, 1]
-        cz += bpos[k, 2]
-        px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
-        py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
-        pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
-    wx_ = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
-    wy_ = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
-    wz_ = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
-    vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + wy_ * (cz - pz) - wz_ * (cy - py)
-    vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + wz_ * (cx - px) - wx_ * (cz - pz)
-    vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wx_ * (cy - py) - wy_ * (cx - px)
-    rx = cx - bpos[k, 0]
-    ry = cy - bpos[k, 1]
-    rz = cz - bpos[k, 2]
-    vbx = bv[k, 0] + bw[k, 1] * rz - bw[k, 2] * ry
-    vby = bv[k, 1] + bw[k, 2] * rx - bw[k, 0] * rz
-    vbz = bv[k, 2] + bw[k, 0] * ry - bw[k, 1] * rx
-    ma = mass[i0] + s * (mass[i1] - mass[i0])
-    if motion[k] == FIXED or motion[k] == KINEMATIC:
-        meff = ma
-    else:
-        meff = ma * bmass[k] / (ma + bmass[k])
-    m1 = seg_material[sg]
-    m2 = body_material[k]
-    kn = normal_stiffness(E[m1], r, E[m2], r)
-    if friction:
-        f0 = ft[c, 0]
-        f1 = ft[c, 1]
-        f2 = ft[c, 2]
-    else:
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
-    Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
-        nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
-        mu_table[m1, m2], zeta_table[m1, m2], meff, f0, f1, f2, friction, dt)
-    if friction:
-        ft[c, 0] = f0
-        ft[c, 1] = f1
-        ft[c, 2] = f2
-    active[c] = 1
-    fc[c, 0] = Fx
-    fc[c, 1] = Fy
-    fc[c, 2] = Fz
-    cp[c, 0] = cx
-    cp[c, 1] = cy
-    cp[c, 2] = cz
-    par_s[c] = s
-    energy[c] = sto
-    diss[c] = dis
-    overlap_ratio[c] = ov / r
+                    nn = math.sqrt(psx * psx + psy * psy + psz * psz)
+                    if nn > 0.0:
+                        nlx, nly, nlz = psx / nn, psy / nn, psz / nn
+                    else:
+                        nlx, nly, nlz = 0.0, 0.0, 1.0
+            if ov <= 0.0:
+                if friction:
+                    ft[slot, 0] = 0.0
+                    ft[slot, 1] = 0.0
+                    ft[slot, 2] = 0.0
+                continue
+            # contact point: middle of the overlap, between the body surface and the capsule's
+            clx = ptx + 0.5 * (gx - nlx * r)
+            cly = pty + 0.5 * (gy - nly * r)
+            clz = ptz + 0.5 * (gz - nlz * r)
+            nx, ny, nz = qrot(qw, qx, qy, qz, nlx, nly, nlz)
+            cx, cy, cz = qrot(qw, qx, qy, qz, clx, cly, clz)
+            cx += bpos[k, 0]
+            cy += bpos[k, 1]
+            cz += bpos[k, 2]
+            px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
+            py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
+            pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
+        wx_ = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
+        wy_ = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
+        wz_ = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
+        vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + wy_ * (cz - pz) - wz_ * (cy - py)
+        vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + wz_ * (cx - px) - wx_ * (cz - pz)
+        vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wx_ * (cy - py) - wy_ * (cx - px)
+        rx = cx - bpos[k, 0]
+        ry = cy - bpos[k, 1]
+        rz = cz - bpos[k, 2]
+        vbx = bv[k, 0] + bw[k, 1] * rz - bw[k, 2] * ry
+        vby = bv[k, 1] + bw[k, 2] * rx - bw[k, 0] * rz
+        vbz = bv[k, 2] + bw[k, 0] * ry - bw[k, 1] * rx
+        ma = mass[i0] + s * (mass[i1] - mass[i0])
+        if motion[k] == FIXED or motion[k] == KINEMATIC:
+            meff = ma
+        else:
+            meff = ma * bmass[k] / (ma + bmass[k])
+        m1 = seg_material[sg]
+        m2 = body_material[k]
+        kn = weight * normal_stiffness(E[m1], r, E[m2], r)
+        if friction:
+            f0 = ft[slot, 0]
+            f1 = ft[slot, 1]
+            f2 = ft[slot, 2]
+        else:
+            f0 = 0.0
+            f1 = 0.0
+            f2 = 0.0
+        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
+            nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
+            mu_table[m1, m2], zeta_table[m1, m2], meff, f0, f1, f2, friction, dt)
+        if friction:
+            ft[slot, 0] = f0
+            ft[slot, 1] = f1
+            ft[slot, 2] = f2
+        active[slot] = 1
+        fc[slot, 0] = Fx
+        fc[slot, 1] = Fy
+        fc[slot, 2] = Fz
+        cp[slot, 0] = cx
+        cp[slot, 1] = cy
+        cp[slot, 2] = cz
+        par_s[slot] = s
+        energy[slot] = sto
+        diss[slot] = dis
+        overlap_ratio[slot] = ov / r
 
 
 @njit(cache=True)
@@ -305,11 +402,12 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
     e_dis = 0.0
     worst = 0.0
     worst_c = -1
-    for c in range(n_cand):
-        if active[c] == 0:
+    for q in range(n_cand * BSLOT):
+        if active[q] == 0:
             continue
-        sg = cs[c]
-        k = cb[c]
+        c = q
+        sg = cs[q // BSLOT]
+        k = cb[q // BSLOT]
         count += 1
         Fx = fc[c, 0]
         Fy = fc[c, 1]
@@ -334,7 +432,7 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
     stats[1] = e_sto
     stats[2] = e_dis
     stats[3] = worst
-    stats[4] = worst_c
+    stats[4] = worst_c // BSLOT if worst_c >= 0 else -1
 
 
 @njit(cache=True)
@@ -389,7 +487,7 @@ def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, bo
                 scratch[0], scratch[1], scratch[2] = qrot_inv(
                     qw, qx, qy, qz, bpos[a, 0] - bpos[b, 0], bpos[a, 1] - bpos[b, 1],
                     bpos[a, 2] - bpos[b, 2])
-                tri, s_, u, vv, ww, d = closest_triangle(b, scratch, scratch, ra, verts, tris,
+                tri, s_, u, vv, ww, d = closest_triangle(b, scratch, scratch, ra, verts, tris, tnormal,
                                                          grid_origin, grid_cell, grid_dims,
                                                          grid_base, grid_start, grid_tris)
                 if tri < 0:

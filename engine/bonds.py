@@ -4,8 +4,12 @@ Each bond carries the stiffnesses of seed eq. 3.1: normal ``E A / L``, shear ``1
 bending ``E I / L`` and twisting ``G J / L``. They act in a co-rotational frame at the bond's
 midpoint (the node frames' mean rotation), so rotations may be large while strains stay small:
 
-* ``d = R_m^T (x_j - x_i)``: axial strain ``d_z - L0`` and shear displacement ``(d_x, d_y)``;
+* axial strain: the chord length ``|x_j - x_i| - L0``;
+* shear displacement: ``(d_x, d_y)`` of ``d = R_m^T (x_j - x_i)``, the bond vector in the
+  midpoint frame;
 * ``phi = log(q_i^* q_j)``: bending (x, y) and twist (z) rotation vector.
+
+Forces and torques are the exact gradient of the bond's energy (see ``_bond``).
 
 For small rotations the shear spring at the midpoint plus the bending spring on the relative
 rotation give exactly the Euler-Bernoulli beam element's stiffness matrix (the midpoint shear
@@ -46,67 +50,138 @@ def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
 
 
 @njit(cache=True, inline="always")
+def _jac_terms(theta2):
+    """Coefficients of the SO(3) Jacobians for a rotation vector of squared angle theta2:
+    c_inv for J^-1 = I -+ 1/2 W + c_inv W^2, and a1, a2 for J = I +- a1 W + a2 W^2."""
+    if theta2 < 1e-8:
+        return 1.0 / 12.0 + theta2 / 720.0, 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
+    th = math.sqrt(theta2)
+    sn = math.sin(th)
+    cs = math.cos(th)
+    return (1.0 / theta2 - (1.0 + cs) / (2.0 * th * sn), (1.0 - cs) / theta2,
+            (th - sn) / (theta2 * th))
+
+
+@njit(cache=True, inline="always")
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@njit(cache=True, inline="always")
 def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
           bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
-    if True:
-        i = bi[b]
-        j = bj[b]
-        # relative rotation of j with respect to i, in i's frame
-        rw, rx, ry, rz = qmul(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3],
-                              q[j, 0], q[j, 1], q[j, 2], q[j, 3])
-        px, py, pz = qlog(rw, rx, ry, rz)
-        hw, hx, hy, hz = qexp(0.5 * px, 0.5 * py, 0.5 * pz)
-        mw, mx, my, mz = qmul(q[i, 0], q[i, 1], q[i, 2], q[i, 3], hw, hx, hy, hz)
-        r0 = x[j, 0] - x[i, 0]
-        r1 = x[j, 1] - x[i, 1]
-        r2 = x[j, 2] - x[i, 2]
-        dx, dy, dz = qrot_inv(mw, mx, my, mz, r0, r1, r2)
-        ez = dz - L0[b]
-        flx = ks[b] * dx
-        fly = ks[b] * dy
-        flz = kn[b] * ez
-        mlx = kb[b] * px
-        mly = kb[b] * py
-        mlz = kt[b] * pz
-        if damped:
-            # relative velocity of j w.r.t. i in the co-rotating midpoint frame
-            wmx = 0.5 * (w[i, 0] + w[j, 0])
-            wmy = 0.5 * (w[i, 1] + w[j, 1])
-            wmz = 0.5 * (w[i, 2] + w[j, 2])
-            vx = v[j, 0] - v[i, 0] - (wmy * r2 - wmz * r1)
-            vy = v[j, 1] - v[i, 1] - (wmz * r0 - wmx * r2)
-            vz = v[j, 2] - v[i, 2] - (wmx * r1 - wmy * r0)
-            lvx, lvy, lvz = qrot_inv(mw, mx, my, mz, vx, vy, vz)
-            ox, oy, oz = qrot_inv(mw, mx, my, mz, w[j, 0] - w[i, 0], w[j, 1] - w[i, 1],
-                                  w[j, 2] - w[i, 2])
-            flx += cs[b] * lvx
-            fly += cs[b] * lvy
-            flz += cn[b] * lvz
-            mlx += cb[b] * ox
-            mly += cb[b] * oy
-            mlz += ct[b] * oz
-            if want_energy:
-                bdiss[b] = dt * (cs[b] * (lvx * lvx + lvy * lvy) + cn[b] * lvz * lvz
-                                 + cb[b] * (ox * ox + oy * oy) + ct[b] * oz * oz)
-        Fx, Fy, Fz = qrot(mw, mx, my, mz, flx, fly, flz)
-        Mx, My, Mz = qrot(mw, mx, my, mz, mlx, mly, mlz)
-        bf[b, 0] = Fx
-        bf[b, 1] = Fy
-        bf[b, 2] = Fz
-        # moment of the midpoint force about each node: (r/2) x F, same for both nodes
-        hx_ = 0.5 * (r1 * Fz - r2 * Fy)
-        hy_ = 0.5 * (r2 * Fx - r0 * Fz)
-        hz_ = 0.5 * (r0 * Fy - r1 * Fx)
-        bti[b, 0] = Mx + hx_
-        bti[b, 1] = My + hy_
-        bti[b, 2] = Mz + hz_
-        btj[b, 0] = -Mx + hx_
-        btj[b, 1] = -My + hy_
-        btj[b, 2] = -Mz + hz_
+    """One bond. Energy U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2)
+    + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with d = R_m^T r the bond vector in the
+    midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
+    exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
+    so undamped bristles conserve energy for any rotation; the torques sum to r x F, so
+    angular momentum is conserved too."""
+    i = bi[b]
+    j = bj[b]
+    qiw, qix, qiy, qiz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+    qjw, qjx, qjy, qjz = q[j, 0], q[j, 1], q[j, 2], q[j, 3]
+    rw, rx, ry, rz = qmul(qiw, -qix, -qiy, -qiz, qjw, qjx, qjy, qjz)
+    px, py, pz = qlog(rw, rx, ry, rz)
+    hw, hx, hy, hz = qexp(0.5 * px, 0.5 * py, 0.5 * pz)
+    mw, mx, my, mz = qmul(qiw, qix, qiy, qiz, hw, hx, hy, hz)
+    r0 = x[j, 0] - x[i, 0]
+    r1 = x[j, 1] - x[i, 1]
+    r2 = x[j, 2] - x[i, 2]
+    length = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    dx, dy, dz = qrot_inv(mw, mx, my, mz, r0, r1, r2)
+    ez = length - L0[b]
+    # axial force along the chord (independent of the node rotations)
+    fa = kn[b] * ez / length if length > 0.0 else 0.0
+    Fx = fa * r0
+    Fy = fa * r1
+    Fz = fa * r2
+    # shear in the midpoint frame
+    sfx = ks[b] * dx
+    sfy = ks[b] * dy
+    mlx = kb[b] * px
+    mly = kb[b] * py
+    mlz = kt[b] * pz
+    gx, gy, gz = _cross(dx, dy, dz, sfx, sfy, 0.0)   # d x f_shear, midpoint frame
+    sx, sy, sz = qrot(mw, mx, my, mz, sfx, sfy, 0.0)
+    Fx += sx
+    Fy += sy
+    Fz += sz
+    # rotation derivatives: tau_i = R_m g + R_j Jl^-1(phi) [m - 1/2 Jl(phi/2) g],
+    #                       tau_j = R_i Jr^-1(phi) [1/2 Jl(phi/2) g - m]
+    th2 = px * px + py * py + pz * pz
+    c_inv, _a1, _a2 = _jac_terms(th2)
+    _c, a1, a2 = _jac_terms(0.25 * th2)
+    hpx = 0.5 * px
+    hpy = 0.5 * py
+    hpz = 0.5 * pz
+    ux, uy, uz = _cross(hpx, hpy, hpz, gx, gy, gz)
+    uux, uuy, uuz = _cross(hpx, hpy, hpz, ux, uy, uz)
+    jgx = 0.5 * (gx + a1 * ux + a2 * uux)   # 1/2 Jl(phi/2) g
+    jgy = 0.5 * (gy + a1 * uy + a2 * uuy)
+    jgz = 0.5 * (gz + a1 * uz + a2 * uuz)
+    ax_ = mlx - jgx
+    ay_ = mly - jgy
+    az_ = mlz - jgz
+    # Jl^-1(phi) a = a - 1/2 phi x a + c phi x (phi x a)
+    cx1, cy1, cz1 = _cross(px, py, pz, ax_, ay_, az_)
+    cx2, cy2, cz2 = _cross(px, py, pz, cx1, cy1, cz1)
+    lx = ax_ - 0.5 * cx1 + c_inv * cx2
+    ly = ay_ - 0.5 * cy1 + c_inv * cy2
+    lz = az_ - 0.5 * cz1 + c_inv * cz2
+    # Jr^-1(phi) (-a) = -(a + 1/2 phi x a + c phi x (phi x a))
+    kx = -(ax_ + 0.5 * cx1 + c_inv * cx2)
+    ky = -(ay_ + 0.5 * cy1 + c_inv * cy2)
+    kz = -(az_ + 0.5 * cz1 + c_inv * cz2)
+    tgx, tgy, tgz = qrot(mw, mx, my, mz, gx, gy, gz)
+    tjx, tjy, tjz = qrot(qjw, qjx, qjy, qjz, lx, ly, lz)
+    tix, tiy, tiz = qrot(qiw, qix, qiy, qiz, kx, ky, kz)
+    Tix = tgx + tjx
+    Tiy = tgy + tjy
+    Tiz = tgz + tjz
+    Tjx = tix
+    Tjy = tiy
+    Tjz = tiz
+    if damped:
+        # viscous damping on the strain rates in the co-rotating midpoint frame
+        wmx = 0.5 * (w[i, 0] + w[j, 0])
+        wmy = 0.5 * (w[i, 1] + w[j, 1])
+        wmz = 0.5 * (w[i, 2] + w[j, 2])
+        vx = v[j, 0] - v[i, 0] - (wmy * r2 - wmz * r1)
+        vy = v[j, 1] - v[i, 1] - (wmz * r0 - wmx * r2)
+        vz = v[j, 2] - v[i, 2] - (wmx * r1 - wmy * r0)
+        lvx, lvy, lvz = qrot_inv(mw, mx, my, mz, vx, vy, vz)
+        ox, oy, oz = qrot_inv(mw, mx, my, mz, w[j, 0] - w[i, 0], w[j, 1] - w[i, 1],
+                              w[j, 2] - w[i, 2])
+        dfx, dfy, dfz = qrot(mw, mx, my, mz, cs[b] * lvx, cs[b] * lvy, cn[b] * lvz)
+        dmx, dmy, dmz = qrot(mw, mx, my, mz, cb[b] * ox, cb[b] * oy, ct[b] * oz)
+        Fx += dfx
+        Fy += dfy
+        Fz += dfz
+        hx_ = 0.5 * (r1 * dfz - r2 * dfy)
+        hy_ = 0.5 * (r2 * dfx - r0 * dfz)
+        hz_ = 0.5 * (r0 * dfy - r1 * dfx)
+        Tix += dmx + hx_
+        Tiy += dmy + hy_
+        Tiz += dmz + hz_
+        Tjx += -dmx + hx_
+        Tjy += -dmy + hy_
+        Tjz += -dmz + hz_
         if want_energy:
-            benergy[b] = 0.5 * (kn[b] * ez * ez + ks[b] * (dx * dx + dy * dy)
-                                + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
-            bbend[b] = kb[b] * math.sqrt(px * px + py * py)
+            bdiss[b] = dt * (cs[b] * (lvx * lvx + lvy * lvy) + cn[b] * lvz * lvz
+                             + cb[b] * (ox * ox + oy * oy) + ct[b] * oz * oz)
+    bf[b, 0] = Fx
+    bf[b, 1] = Fy
+    bf[b, 2] = Fz
+    bti[b, 0] = Tix
+    bti[b, 1] = Tiy
+    bti[b, 2] = Tiz
+    btj[b, 0] = Tjx
+    btj[b, 1] = Tjy
+    btj[b, 2] = Tjz
+    if want_energy:
+        benergy[b] = 0.5 * (kn[b] * ez * ez + ks[b] * (dx * dx + dy * dy)
+                            + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
+        bbend[b] = kb[b] * math.sqrt(px * px + py * py)
 
 
 @njit(cache=True, parallel=True)

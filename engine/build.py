@@ -488,7 +488,8 @@ def build(scene: Scene) -> System:
                   tj=np.zeros((B, 3)), energy=np.zeros(B), diss=np.zeros(B), bend=np.zeros(B),
                   has_next=cat(has_next, 0, np.bool_), bristle=cat(bond_bristle, 0, np.int64),
                   material=cat(bond_mat, 0, np.int64), mount=cat(bond_mount, 0, np.int64),
-                  mid=np.zeros((B, 3)), bound=np.zeros(B))
+                  mid=np.zeros((B, 3)), bound=np.zeros(B),
+                  rmax=np.maximum(rad[bi], rad[bj]) if B else np.zeros(0))
     roots = Roots(node=root_node_a, body=np.asarray(root_body, np.int64),
                   local_pos=np.asarray(root_lpos, float).reshape(-1, 3),
                   local_q=np.asarray(root_lq, float).reshape(-1, 4))
@@ -501,12 +502,12 @@ def build(scene: Scene) -> System:
         v0=np.asarray(kin[4], float), v1=np.asarray(kin[5], float), wseg=np.asarray(kin[6], float),
         q0=np.asarray(kin[7], float), cursor=np.zeros(K, np.int64), sphere_r=sphere_r,
         bound_r=bound_r, watertight=watertight, material=bmat, collide=collide,
-        pos_build=pos.copy(), pos0=pos.copy(), verts=np.ascontiguousarray(verts, float),
+        pos_build=pos.copy(), q_build=q.copy(), pos0=pos.copy(), verts=np.ascontiguousarray(verts, float),
         tris=np.ascontiguousarray(tris, np.int64), tnormal=np.ascontiguousarray(normals),
         grid_origin=g_origin, grid_cell=g_cell, grid_dims=g_dims, grid_base=g_base,
         grid_start=np.ascontiguousarray(g_start, np.int64),
         grid_tris=np.ascontiguousarray(g_tris, np.int64), ft_bb=np.zeros((K, K, 3)),
-        scratch=np.zeros(3))
+        scratch=np.zeros(3), scratch2=np.zeros((2, 3)))
     # kinematic bodies start on their profile
     from .bodies import kinematic_state
     for k in range(K):
@@ -515,6 +516,7 @@ def build(scene: Scene) -> System:
                             bodies.p1, bodies.v0, bodies.v1, bodies.wseg, bodies.q0,
                             bodies.cursor, bodies.pos, bodies.v, bodies.q, bodies.w)
     bodies.pos_build[:] = bodies.pos
+    bodies.q_build[:] = bodies.q
     bodies.pos0[:] = bodies.pos
 
     # ------------------------------------------------------------------ stages
@@ -583,10 +585,11 @@ def build(scene: Scene) -> System:
     r_max = float(rad.max()) if N else 0.0
     n_segments = max(B, 1)
     for k in range(K):
-        if motion[k] in (FREE, HINGE) or after_free[k]:
+        if (motion[k] in (FREE, HINGE) or after_free[k]) and collide[k]:
             k_body = 0.0
             if bbody_needed and N:
-                k_body += min(n_segments, 100) * 2.0 * E_br_max * r_max
+                Ek = float(E_tab[bmat[k]])
+                k_body += min(n_segments, 100) * 2.0 * E_br_max * Ek / (E_br_max + Ek) * r_max
             if bodybody_needed and sphere_r[k] > 0:
                 k_body += 2.0 * float(E_tab[bmat[k]]) * sphere_r[k] * 2
             elif bodybody_needed and spheres:
@@ -595,6 +598,7 @@ def build(scene: Scene) -> System:
                                 float(bound_r[k])))
     sysinfo = dict(node_mass=np.where(nmass > 0, nmass, 1.0), node_inertia=np.where(ninertia > 0, ninertia, 1.0),
                    node_radius=rad, node_E=E_node, node_free=node_free,
+                   node_E_body=_body_contact_modulus(E_node, E_tab, bmat, collide),
                    bond_arrays=(bi, bj, bonds.kn, bonds.ks, bonds.kb, bonds.kt, bonds.L0),
                    bristle_bristle=bb_needed, bristle_body=bbody_needed, bodies=bodies_info,
                    node_label=None)
@@ -683,22 +687,30 @@ def build(scene: Scene) -> System:
 
 
 def _pair_list(cap: int, friction: bool) -> PairList:
-    h = cap if friction else 0
-    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((max(h, 1), 3)),
-                    active=np.zeros(cap, np.int8), fc=np.zeros((cap, 3)), cp=np.zeros((cap, 3)),
-                    s=np.zeros(cap), t=np.zeros(cap), energy=np.zeros(cap), diss=np.zeros(cap),
-                    ratio=np.zeros(cap), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
-                    b2=np.zeros(cap, np.int64), ft2=np.zeros((max(h, 1), 3)))
+    """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; tangential
+    history only where there is friction."""
+    from .contacts import NSLOT
+    c = cap * NSLOT
+    h = c if friction else 1
+    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
+                    active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
+                    s=np.zeros(c), t=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
+                    ratio=np.zeros(c), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
+                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, 3)),
+                    xf=np.zeros((c, 4, 3)))
 
 
 def _body_list(cap: int, friction: bool) -> BodyList:
-    h = cap if friction else 0
-    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((max(h, 1), 3)),
-                    active=np.zeros(cap, np.int8), fc=np.zeros((cap, 3)), cp=np.zeros((cap, 3)),
-                    par=np.zeros(cap), energy=np.zeros(cap), diss=np.zeros(cap),
-                    ratio=np.zeros(cap), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
+    """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each."""
+    from .body_contacts import BSLOT
+    c = cap * BSLOT
+    h = c if friction else 1
+    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
+                    active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
+                    par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
+                    ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((max(h, 1), 3)))
+                    ft2=np.zeros((h, 3)))
 
 
 def grow_lists(system: System, which: int, needed: int) -> None:
@@ -711,7 +723,8 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.a[:n] = old.a[:n]
         new.b[:n] = old.b[:n]
         if system.flags.friction_bristle:
-            new.ft[:n] = old.ft[:n]
+            from .contacts import NSLOT
+            new.ft[:n * NSLOT] = old.ft[:n * NSLOT]
         new.n[0] = n
         system.pairs = new
     else:
@@ -721,7 +734,8 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.s[:n] = old.s[:n]
         new.b[:n] = old.b[:n]
         if system.flags.friction_body:
-            new.ft[:n] = old.ft[:n]
+            from .body_contacts import BSLOT
+            new.ft[:n * BSLOT] = old.ft[:n * BSLOT]
         new.n[0] = n
         system.body_pairs = new
 
@@ -760,3 +774,13 @@ def _bristles_can_meet(scene, brushes, x, rad, bristle_first, n_bristle, motion)
         return False
     d = np.linalg.norm(roots[pairs[:, 0]] - roots[pairs[:, 1]], axis=1)
     return bool(np.any(d < reach[pairs[:, 0]] + reach[pairs[:, 1]]))
+
+
+def _body_contact_modulus(E_node: np.ndarray, E_tab: np.ndarray, bmat: np.ndarray,
+                          collide: np.ndarray) -> np.ndarray:
+    """Per node, 2 E_b E_k / (E_b + E_k) for the stiffest body k it could touch (k_n / r)."""
+    E_bodies = E_tab[bmat[collide]] if collide.any() else np.zeros(0)
+    if E_bodies.size == 0 or E_node.size == 0:
+        return np.zeros_like(E_node)
+    Ek = float(E_bodies.max())
+    return 2.0 * E_node * Ek / (E_node + Ek)

@@ -1,9 +1,11 @@
 """Bristle-bristle contacts: the Verlet neighbour list (built through a cell list, O(n)) and
 the capsule-capsule narrow phase with the Cundall-Strack law.
 
-A contact is between two segments (capsules) of *different* bristles. Where two segments of
-one bristle meet at a joint, a contact whose closest point is exactly that joint is counted by
-the segment after the joint only, so a touch at a joint is counted once.
+A contact is between two segments (capsules) of *different* bristles, at their closest
+points. Only local minima of the distance between two bristles count: a closest point at a
+joint is counted by the segment after the joint, and only if the segment before it does not
+come closer; so a touch at a joint is counted once, and contacts hand over continuously from
+segment to segment (which keeps the energy of undamped, frictionless contacts constant).
 
 The neighbour list keeps every segment pair whose bounding spheres are closer than the skin.
 It is rebuilt (by the step loop) when some node has moved more than half the skin since the
@@ -19,7 +21,93 @@ from numba import njit, prange
 
 from .bonds import PARALLEL_MIN
 from .contact_law import contact_force, normal_stiffness
-from .geometry import segment_segment_closest
+from .geometry import segment_point_closest, segment_segment_closest
+
+
+@njit(cache=True, inline="always")
+def joint_owned_elsewhere(x, rad, bi, bj, bond_prev, seg, s, has_next, qx, qy, qz):
+    """True if the closest point of segment ``seg`` (parameter s) to the point q is a joint
+    that another segment of the same bristle represents, or that is not a local minimum of the
+    distance along the bristle. Keeping only local minima (and a joint once) makes the set of
+    contacts change continuously: where a contact moves from one segment to the next, both
+    see the same point at the same distance."""
+    if s >= 1.0 and has_next:
+        return True  # the next segment sees this joint at its start
+    if s <= 0.0:
+        pb = bond_prev[bi[seg]]
+        if pb >= 0:
+            j = bi[seg]
+            i = bi[pb]
+            # does moving back into the previous segment increase the overlap with q
+            # (the surface comes closer, or the radius grows faster than the axis recedes)?
+            ex = x[j, 0] - qx
+            ey = x[j, 1] - qy
+            ez = x[j, 2] - qz
+            dist = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if dist > 0.0:
+                back = (ex * (x[j, 0] - x[i, 0]) + ey * (x[j, 1] - x[i, 1])
+                        + ez * (x[j, 2] - x[i, 2])) / dist + (rad[i] - rad[j])
+                if back > 0.0:
+                    return True
+    return False
+
+
+@njit(cache=True)
+def max_overlap_params(x, i0, i1, j0, j1, r0a, r1a, r0b, r1b, s, t):
+    """Refine (s, t) from the axes' closest points to the maximum of the overlap
+    ``ra(s) + rb(t) - |P(s) - Q(t)|`` of two tapered capsules (Newton on the 2x2 system,
+    clamped to the unit square). At that maximum the contact force kn * overlap * n is the
+    exact gradient of the contact energy, so tapered bristles conserve energy too."""
+    dar = r1a - r0a
+    dbr = r1b - r0b
+    if dar == 0.0 and dbr == 0.0:
+        return s, t
+    d1x = x[i1, 0] - x[i0, 0]
+    d1y = x[i1, 1] - x[i0, 1]
+    d1z = x[i1, 2] - x[i0, 2]
+    d2x = x[j1, 0] - x[j0, 0]
+    d2y = x[j1, 1] - x[j0, 1]
+    d2z = x[j1, 2] - x[j0, 2]
+    a11 = d1x * d1x + d1y * d1y + d1z * d1z
+    a22 = d2x * d2x + d2y * d2y + d2z * d2z
+    a12 = d1x * d2x + d1y * d2y + d1z * d2z
+    for _ in range(4):
+        rx = x[i0, 0] + s * d1x - x[j0, 0] - t * d2x
+        ry = x[i0, 1] + s * d1y - x[j0, 1] - t * d2y
+        rz = x[i0, 2] + s * d1z - x[j0, 2] - t * d2z
+        d = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if d <= 1e-300:
+            return s, t
+        rd1 = (rx * d1x + ry * d1y + rz * d1z) / d
+        rd2 = (rx * d2x + ry * d2y + rz * d2z) / d
+        g1 = dar - rd1           # d overlap / ds
+        g2 = dbr + rd2           # d overlap / dt
+        h11 = (a11 - rd1 * rd1) / d  # Hessian of the distance
+        h22 = (a22 - rd2 * rd2) / d
+        h12 = (-a12 + rd1 * rd2) / d
+        free_s = not ((s <= 0.0 and g1 < 0.0) or (s >= 1.0 and g1 > 0.0))
+        free_t = not ((t <= 0.0 and g2 < 0.0) or (t >= 1.0 and g2 > 0.0))
+        det = h11 * h22 - h12 * h12
+        if free_s and free_t and det > 1e-12 * (h11 * h22 + 1e-300):
+            ds = (h22 * g1 - h12 * g2) / det
+            dt_ = (h11 * g2 - h12 * g1) / det
+        elif free_s and h11 > 0.0:
+            ds = g1 / h11
+            dt_ = 0.0
+        elif free_t and h22 > 0.0:
+            ds = 0.0
+            dt_ = g2 / h22
+        else:
+            # flat direction (parallel axes): the overlap grows linearly: go to the end
+            ds = (1.0 if g1 > 0.0 else -1.0) if free_s else 0.0
+            dt_ = (1.0 if g2 > 0.0 else -1.0) if free_t else 0.0
+        s_new = min(max(s + ds, 0.0), 1.0)
+        t_new = min(max(t + dt_, 0.0), 1.0)
+        if abs(s_new - s) < 1e-12 and abs(t_new - t) < 1e-12:
+            return s_new, t_new
+        s = s_new
+        t = t_new
+    return s, t
 
 
 @njit(cache=True)
@@ -38,10 +126,13 @@ def segment_bounds(x, rad, bi, bj, mid, bound):
 
 
 @njit(cache=True)
-def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b):
-    """All pairs (a < b) of segments of different bristles whose bounding spheres are closer
-    than ``skin``, sorted by (a, b). Returns the number of pairs; if it exceeds the capacity
-    of ``out_a`` nothing past the capacity is written and the caller must grow and retry."""
+def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_rmax):
+    """All pairs (a < b) of segments of different bristles whose capsules (axis distance
+    minus the largest radii) are closer than ``skin``, sorted by (a, b). Candidates come from
+    a cell list over the segments' bounding spheres. No point of a segment moves further than
+    its farthest node, so the list stays complete while every node has moved less than
+    skin / 2. Returns the number of pairs; if it exceeds the capacity of ``out_a`` nothing
+    past the capacity is written and the caller must grow and retry."""
     ns = mid.shape[0]
     if ns == 0:
         return 0
@@ -106,7 +197,21 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b):
                         dy = mid[a, 1] - mid[b, 1]
                         dz = mid[a, 2] - mid[b, 2]
                         lim = bound[a] + bound[b] + skin
-                        if dx * dx + dy * dy + dz * dz < lim * lim:
+                        if dx * dx + dy * dy + dz * dz >= lim * lim:
+                            continue
+                        ia = bi[a]
+                        ja = bj[a]
+                        ib = bi[b]
+                        jb = bj[b]
+                        s, t = segment_segment_closest(x[ia], x[ja], x[ib], x[jb])
+                        ex = (x[ia, 0] + s * (x[ja, 0] - x[ia, 0])
+                              - x[ib, 0] - t * (x[jb, 0] - x[ib, 0]))
+                        ey = (x[ia, 1] + s * (x[ja, 1] - x[ia, 1])
+                              - x[ib, 1] - t * (x[jb, 1] - x[ib, 1]))
+                        ez = (x[ia, 2] + s * (x[ja, 2] - x[ia, 2])
+                              - x[ib, 2] - t * (x[jb, 2] - x[ib, 2]))
+                        lim = seg_rmax[a] + seg_rmax[b] + skin
+                        if ex * ex + ey * ey + ez * ez < lim * lim:
                             if n < cap:
                                 keys[n] = a * ns + b
                             n += 1
@@ -128,147 +233,356 @@ def carry_history(old_a, old_b, old_ft, n_old, new_a, new_b, new_ft, n_new, ns):
         key = new_a[k] * ns + new_b[k]
         while i < n_old and old_a[i] * ns + old_b[i] < key:
             i += 1
-        if i < n_old and old_a[i] * ns + old_b[i] == key:
-            new_ft[k, 0] = old_ft[i, 0]
-            new_ft[k, 1] = old_ft[i, 1]
-            new_ft[k, 2] = old_ft[i, 2]
-        else:
-            new_ft[k, 0] = 0.0
-            new_ft[k, 1] = 0.0
-            new_ft[k, 2] = 0.0
+        found = i < n_old and old_a[i] * ns + old_b[i] == key
+        for m in range(NSLOT):
+            for c in range(3):
+                new_ft[k * NSLOT + m, c] = old_ft[i * NSLOT + m, c] if found else 0.0
+
+
+NSLOT = 5  # contacts a segment pair can hold: 4 node-segment + 1 crossing
+CROSS_SIN2_LO = 0.04   # sin^2 of the angle where crossing contacts start to count (0.2 rad)
+CROSS_SIN2_HI = 0.10   # ... and count fully (0.32 rad)
+CROSS_END = 0.25       # crossing contacts fade out over the last quarter of each segment
 
 
 @njit(cache=True, parallel=True)
-def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                           pa, pb, n_pairs, ft, friction,
+def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
+                           seg_material, pa, pb, n_pairs, ft, friction,
                            E, mu_table, kt_table, zeta_table,
-                           active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, dt):
-    """Capsule-capsule contacts for the first ``n_pairs`` listed pairs. Per pair, writes the
-    force on segment ``pa`` (``fc``; ``pb`` gets ``-fc``), the contact point ``cp`` and the
-    closest-point parameters; keeps the tangential history in ``ft``."""
+                           active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
+    """Contacts of the first ``n_pairs`` listed segment pairs, up to ``NSLOT`` per pair:
+
+    * slots 0-3, node against segment: each node of one bristle against the other bristle's
+      segment (the start node of each segment, and the tip node of the last one). The
+      distance from a point to a segment is continuously differentiable, so the contact
+      energy has no kinks and undamped contacts conserve energy; a closest point at a joint is
+      counted once (by the segment after the joint, and only if it is a local minimum);
+    * slot 4, crossing: segments that cross at an angle touch between their nodes; that
+      contact is weighted smoothly to zero towards either segment's ends (where the node
+      contacts take over) and towards parallel axes (where the closest point is ill-defined).
+
+    Per slot: the force on the pair's first segment ``fc`` (the second gets ``-fc``), the
+    contact point ``cp``, and the contact's parameters on both segments; tangential history
+    per slot in ``ft``."""
     if n_pairs >= PARALLEL_MIN:
         for p in prange(n_pairs):
-            _bristle_bristle_narrow_one(p, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, pa, pb, n_pairs, ft, friction, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, dt)
+            _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
+                           seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
+                           zeta_table, active, fc, cp, par_s, par_t, energy, diss,
+                           overlap_ratio, xf, dt)
     else:
         for p in range(n_pairs):
-            _bristle_bristle_narrow_one(p, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material, pa, pb, n_pairs, ft, friction, E, mu_table, kt_table, zeta_table, active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, dt)
+            _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
+                           seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
+                           zeta_table, active, fc, cp, par_s, par_t, energy, diss,
+                           overlap_ratio, xf, dt)
 
+
+@njit(cache=True, inline="always")
+def _smooth01(u):
+    if u <= 0.0:
+        return 0.0
+    if u >= 1.0:
+        return 1.0
+    return u * u * (3.0 - 2.0 * u)
 
 
 @njit(cache=True)
-def _bristle_bristle_narrow_one(p, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                           pa, pb, n_pairs, ft, friction,
-                           E, mu_table, kt_table, zeta_table,
-                           active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, dt):
+def point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t):
+    """Refine t (start: the closest point of segment j0-j1 to p) to the maximum of
+    rb(t) - |p - Q(t)| for a tapered segment (1-D Newton, clamped)."""
+    dr = rad[j1] - rad[j0]
+    if dr == 0.0:
+        return t
+    dx = x[j1, 0] - x[j0, 0]
+    dy = x[j1, 1] - x[j0, 1]
+    dz = x[j1, 2] - x[j0, 2]
+    a = dx * dx + dy * dy + dz * dz
+    for _ in range(4):
+        rx = px - x[j0, 0] - t * dx
+        ry = py - x[j0, 1] - t * dy
+        rz = pz - x[j0, 2] - t * dz
+        d = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if d <= 1e-300:
+            return t
+        rd = (rx * dx + ry * dy + rz * dz) / d
+        g = dr + rd
+        h = (a - rd * rd) / d
+        if (t <= 0.0 and g < 0.0) or (t >= 1.0 and g > 0.0):
+            return t
+        if h > 1e-300:
+            tn = min(max(t + g / h, 0.0), 1.0)
+        else:
+            tn = 1.0 if g > 0.0 else 0.0
+        if abs(tn - t) < 1e-12:
+            return tn
+        t = tn
+    return t
+
+
+@njit(cache=True, inline="always")
+def _point_overlap(x, rad, j0, j1, px, py, pz):
+    """Largest overlap rb(t) - |p - Q(t)| of a point with the tapered segment j0-j1
+    (without the point's own radius), and its parameter."""
+    t = segment_point_closest(x[j0], x[j1], (px, py, pz))
+    t = point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t)
+    qx = x[j0, 0] + t * (x[j1, 0] - x[j0, 0]) - px
+    qy = x[j0, 1] + t * (x[j1, 1] - x[j0, 1]) - py
+    qz = x[j0, 2] + t * (x[j1, 2] - x[j0, 2]) - pz
+    return rad[j0] + t * (rad[j1] - rad[j0]) - math.sqrt(qx * qx + qy * qy + qz * qz), t
+
+
+@njit(cache=True)
+def best_of_neighbours(x, rad, bi, bj, bond_prev, bond_next, seg, ov, px, py, pz):
+    """A point touches a bristle where its overlap with the bristle's segments is a local
+    maximum: keep segment ``seg`` only if its overlap ``ov`` beats the previous segment's
+    and is at least the next one's. At a tie both give the same contact, so the contact
+    hands over continuously, and a convex joint is counted once."""
+    pb = bond_prev[bi[seg]]
+    if pb >= 0:
+        o, _t = _point_overlap(x, rad, bi[pb], bj[pb], px, py, pz)
+        if o >= ov:
+            return False
+    nb = bond_next[bj[seg]]
+    if nb >= 0:
+        o, _t = _point_overlap(x, rad, bi[nb], bj[nb], px, py, pz)
+        if o > ov:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _dsmooth01(u):
+    if u <= 0.0 or u >= 1.0:
+        return 0.0
+    return 6.0 * u * (1.0 - u)
+
+
+@njit(cache=True)
+def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
+    """Extra nodal forces of a crossing contact, whose energy is U = w * 1/2 kn ov^2 with
+    a weight w(angle, s, t) and ov = ra(s) + rb(t) - d: the applied force kn w ov n covers the
+    distance term; this adds -1/2 kn ov^2 grad w - kn w ov (dra grad s + drb grad t), with
+    grad s, grad t from differentiating the closest-point conditions (interior points, where
+    w > 0). ``out`` (4, 3) gets the forces on nodes i0, i1, j0, j1, so U is conserved."""
+    d1 = (x[i1, 0] - x[i0, 0], x[i1, 1] - x[i0, 1], x[i1, 2] - x[i0, 2])
+    d2 = (x[j1, 0] - x[j0, 0], x[j1, 1] - x[j0, 1], x[j1, 2] - x[j0, 2])
+    a11 = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
+    a22 = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
+    a12 = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
+    r = (x[i0, 0] + s * d1[0] - x[j0, 0] - t * d2[0],
+         x[i0, 1] + s * d1[1] - x[j0, 1] - t * d2[1],
+         x[i0, 2] + s * d1[2] - x[j0, 2] - t * d2[2])
+    sin2 = 1.0 - a12 * a12 / (a11 * a22)
+    u_ang = (sin2 - CROSS_SIN2_LO) / (CROSS_SIN2_HI - CROSS_SIN2_LO)
+    chi = _smooth01(u_ang)
+    dchi = _dsmooth01(u_ang) / (CROSS_SIN2_HI - CROSS_SIN2_LO)
+    ms = min(s, 1.0 - s)
+    mt = min(t, 1.0 - t)
+    ps = _smooth01(ms / CROSS_END)
+    pt = _smooth01(mt / CROSS_END)
+    dps = _dsmooth01(ms / CROSS_END) / CROSS_END * (1.0 if s < 0.5 else -1.0)
+    dpt = _dsmooth01(mt / CROSS_END) / CROSS_END * (1.0 if t < 0.5 else -1.0)
+    w = chi * ps * pt
+    U0 = 0.5 * kn * ov * ov
+    # dU/ds and dU/dt at fixed positions (the distance is stationary in s, t)
+    cs_ = U0 * chi * dps * pt + kn * w * ov * (rad[i1] - rad[i0])
+    ct_ = U0 * chi * ps * dpt + kn * w * ov * (rad[j1] - rad[j0])
+    # grad of sin^2 w.r.t. d1 and d2
+    f = -2.0 * a12 / (a11 * a22)
+    det = a12 * a12 - a11 * a22
+    for c in range(3):
+        gd1 = f * (d2[c] - (a12 / a11) * d1[c])
+        gd2 = f * (d1[c] - (a12 / a22) * d2[c])
+        # closest-point conditions g1 = r.d1 = 0, g2 = r.d2 = 0: coefficients per node
+        e1 = ((1.0 - s) * d1[c] - r[c], s * d1[c] + r[c], -(1.0 - t) * d1[c], -t * d1[c])
+        e2 = ((1.0 - s) * d2[c], s * d2[c], -(1.0 - t) * d2[c] - r[c], r[c] - t * d2[c])
+        ang = (-gd1, gd1, -gd2, gd2)
+        for n in range(4):
+            # [a11 -a12; a12 -a22] [ds dt] = -[e1 e2]
+            ds = -(-a22 * e1[n] + a12 * e2[n]) / det
+            dt_ = -(-a12 * e1[n] + a11 * e2[n]) / det
+            grad = U0 * dchi * ps * pt * ang[n] + cs_ * ds + ct_ * dt_
+            out[n, c] = -grad
+
+
+@njit(cache=True)
+def _clear(slot, active, ft, friction):
+    active[slot] = 0
+    if friction:
+        ft[slot, 0] = 0.0
+        ft[slot, 1] = 0.0
+        ft[slot, 2] = 0.0
+
+
+@njit(cache=True)
+def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next, seg_material,
+                   pa, pb, ft, friction, E, mu_table, kt_table, zeta_table,
+                   active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
     a = pa[p]
     b = pb[p]
-    i0 = bi[a]
-    i1 = bj[a]
-    j0 = bi[b]
-    j1 = bj[b]
-    active[p] = 0
-    s, t = segment_segment_closest(x[i0], x[i1], x[j0], x[j1])
-    if (s >= 1.0 and seg_has_next[a]) or (t >= 1.0 and seg_has_next[b]):
-        if friction:
-            ft[p, 0] = 0.0
-            ft[p, 1] = 0.0
-            ft[p, 2] = 0.0
-        return
-    ax = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
-    ay = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
-    az = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
-    bx = x[j0, 0] + t * (x[j1, 0] - x[j0, 0])
-    by = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
-    bz = x[j0, 2] + t * (x[j1, 2] - x[j0, 2])
-    ra = rad[i0] + s * (rad[i1] - rad[i0])
-    rb = rad[j0] + t * (rad[j1] - rad[j0])
-    dx = ax - bx
-    dy = ay - by
-    dz = az - bz
-    d = math.sqrt(dx * dx + dy * dy + dz * dz)
-    ov = ra + rb - d
-    if ov <= 0.0:
-        if friction:
-            ft[p, 0] = 0.0
-            ft[p, 1] = 0.0
-            ft[p, 2] = 0.0
-        return
-    if d > 1e-9 * (ra + rb):
-        nx = dx / d
-        ny = dy / d
-        nz = dz / d
-    else:
-        # axes intersect: the normal is perpendicular to both axes (never NaN)
-        ux = x[i1, 0] - x[i0, 0]
-        uy = x[i1, 1] - x[i0, 1]
-        uz = x[i1, 2] - x[i0, 2]
-        wx = x[j1, 0] - x[j0, 0]
-        wy = x[j1, 1] - x[j0, 1]
-        wz = x[j1, 2] - x[j0, 2]
-        nx = uy * wz - uz * wy
-        ny = uz * wx - ux * wz
-        nz = ux * wy - uy * wx
-        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if nn < 1e-30:
-            # collinear axes: any direction perpendicular to the first axis
-            if abs(ux) < 0.9 * math.sqrt(ux * ux + uy * uy + uz * uz):
-                nx, ny, nz = 0.0, -uz, uy
-            else:
-                nx, ny, nz = uz, 0.0, -ux
+    base = p * NSLOT
+    for k in range(NSLOT):
+        slot = base + k
+        if k == 0 or k == 2:
+            # a node of segment a against segment b
+            if k == 2 and seg_has_next[a]:
+                _clear(slot, active, ft, friction)
+                continue
+            first, second = a, b
+            s = 0.0 if k == 0 else 1.0
+        elif k == 1 or k == 3:
+            if k == 3 and seg_has_next[b]:
+                _clear(slot, active, ft, friction)
+                continue
+            first, second = b, a
+            s = 0.0 if k == 1 else 1.0
+        else:
+            first, second = a, b
+            s = 0.0
+        i0 = bi[first]
+        i1 = bj[first]
+        j0 = bi[second]
+        j1 = bj[second]
+        weight = 1.0
+        if k < 4:
+            node = i0 if s == 0.0 else i1
+            px_ = x[node, 0]
+            py_ = x[node, 1]
+            pz_ = x[node, 2]
+            ovb, t = _point_overlap(x, rad, j0, j1, px_, py_, pz_)
+            if ovb + rad[node] <= 0.0 or not best_of_neighbours(
+                    x, rad, bi, bj, bond_prev, bond_next, second, ovb, px_, py_, pz_):
+                _clear(slot, active, ft, friction)
+                continue
+            qx_ = x[j0, 0] + t * (x[j1, 0] - x[j0, 0])
+            qy_ = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
+            qz_ = x[j0, 2] + t * (x[j1, 2] - x[j0, 2])
+        else:
+            s, t = segment_segment_closest(x[i0], x[i1], x[j0], x[j1])
+            d1x = x[i1, 0] - x[i0, 0]
+            d1y = x[i1, 1] - x[i0, 1]
+            d1z = x[i1, 2] - x[i0, 2]
+            d2x = x[j1, 0] - x[j0, 0]
+            d2y = x[j1, 1] - x[j0, 1]
+            d2z = x[j1, 2] - x[j0, 2]
+            cx_ = d1y * d2z - d1z * d2y
+            cy_ = d1z * d2x - d1x * d2z
+            cz_ = d1x * d2y - d1y * d2x
+            n1 = d1x * d1x + d1y * d1y + d1z * d1z
+            n2 = d2x * d2x + d2y * d2y + d2z * d2z
+            sin2 = (cx_ * cx_ + cy_ * cy_ + cz_ * cz_) / (n1 * n2) if n1 * n2 > 0 else 0.0
+            weight = (_smooth01((sin2 - CROSS_SIN2_LO) / (CROSS_SIN2_HI - CROSS_SIN2_LO))
+                      * _smooth01(min(s, 1.0 - s) / CROSS_END)
+                      * _smooth01(min(t, 1.0 - t) / CROSS_END))
+            if weight <= 0.0:
+                _clear(slot, active, ft, friction)
+                xf[slot, :, :] = 0.0
+                continue
+            px_ = x[i0, 0] + s * d1x
+            py_ = x[i0, 1] + s * d1y
+            pz_ = x[i0, 2] + s * d1z
+            qx_ = x[j0, 0] + t * d2x
+            qy_ = x[j0, 1] + t * d2y
+            qz_ = x[j0, 2] + t * d2z
+        ra = rad[i0] + s * (rad[i1] - rad[i0])
+        rb = rad[j0] + t * (rad[j1] - rad[j0])
+        dx = px_ - qx_
+        dy = py_ - qy_
+        dz = pz_ - qz_
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        ov = ra + rb - d
+        if ov <= 0.0:
+            _clear(slot, active, ft, friction)
+            continue
+        if d > 1e-9 * (ra + rb):
+            nx = dx / d
+            ny = dy / d
+            nz = dz / d
+        else:
+            # axes intersect: the normal is perpendicular to both axes (never NaN)
+            ux = x[i1, 0] - x[i0, 0]
+            uy = x[i1, 1] - x[i0, 1]
+            uz = x[i1, 2] - x[i0, 2]
+            wx = x[j1, 0] - x[j0, 0]
+            wy = x[j1, 1] - x[j0, 1]
+            wz = x[j1, 2] - x[j0, 2]
+            nx = uy * wz - uz * wy
+            ny = uz * wx - ux * wz
+            nz = ux * wy - uy * wx
             nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-        nx /= nn
-        ny /= nn
-        nz /= nn
-    # contact point: the middle of the overlap along the normal
-    h = ra - 0.5 * ov
-    cx = ax - nx * h
-    cy = ay - ny * h
-    cz = az - nz * h
-    wax = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
-    way = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
-    waz = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
-    wbx = w[j0, 0] + t * (w[j1, 0] - w[j0, 0])
-    wby = w[j0, 1] + t * (w[j1, 1] - w[j0, 1])
-    wbz = w[j0, 2] + t * (w[j1, 2] - w[j0, 2])
-    vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + way * (cz - az) - waz * (cy - ay)
-    vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + waz * (cx - ax) - wax * (cz - az)
-    vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wax * (cy - ay) - way * (cx - ax)
-    vbx = v[j0, 0] + t * (v[j1, 0] - v[j0, 0]) + wby * (cz - bz) - wbz * (cy - by)
-    vby = v[j0, 1] + t * (v[j1, 1] - v[j0, 1]) + wbz * (cx - bx) - wbx * (cz - bz)
-    vbz = v[j0, 2] + t * (v[j1, 2] - v[j0, 2]) + wbx * (cy - by) - wby * (cx - bx)
-    ma = mass[i0] + s * (mass[i1] - mass[i0])
-    mb = mass[j0] + t * (mass[j1] - mass[j0])
-    m1 = seg_material[a]
-    m2 = seg_material[b]
-    kn = normal_stiffness(E[m1], ra, E[m2], rb)
-    if friction:
-        f0 = ft[p, 0]
-        f1 = ft[p, 1]
-        f2 = ft[p, 2]
-    else:
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
-    Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
-        nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
-        mu_table[m1, m2], zeta_table[m1, m2], ma * mb / (ma + mb), f0, f1, f2,
-        friction, dt)
-    if friction:
-        ft[p, 0] = f0
-        ft[p, 1] = f1
-        ft[p, 2] = f2
-    active[p] = 1
-    fc[p, 0] = Fx
-    fc[p, 1] = Fy
-    fc[p, 2] = Fz
-    cp[p, 0] = cx
-    cp[p, 1] = cy
-    cp[p, 2] = cz
-    par_s[p] = s
-    par_t[p] = t
-    energy[p] = sto
-    diss[p] = dis
-    overlap_ratio[p] = ov / min(ra, rb)
+            if nn < 1e-30:
+                # collinear axes: any direction perpendicular to the first axis
+                if abs(ux) < 0.9 * math.sqrt(ux * ux + uy * uy + uz * uz):
+                    nx, ny, nz = 0.0, -uz, uy
+                else:
+                    nx, ny, nz = uz, 0.0, -ux
+                nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            nx /= nn
+            ny /= nn
+            nz /= nn
+        # contact point: the middle of the overlap along the normal
+        h = ra - 0.5 * ov
+        cx = px_ - nx * h
+        cy = py_ - ny * h
+        cz = pz_ - nz * h
+        wax = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
+        way = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
+        waz = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
+        wbx = w[j0, 0] + t * (w[j1, 0] - w[j0, 0])
+        wby = w[j0, 1] + t * (w[j1, 1] - w[j0, 1])
+        wbz = w[j0, 2] + t * (w[j1, 2] - w[j0, 2])
+        vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + way * (cz - pz_) - waz * (cy - py_)
+        vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + waz * (cx - px_) - wax * (cz - pz_)
+        vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wax * (cy - py_) - way * (cx - px_)
+        vbx = v[j0, 0] + t * (v[j1, 0] - v[j0, 0]) + wby * (cz - qz_) - wbz * (cy - qy_)
+        vby = v[j0, 1] + t * (v[j1, 1] - v[j0, 1]) + wbz * (cx - qx_) - wbx * (cz - qz_)
+        vbz = v[j0, 2] + t * (v[j1, 2] - v[j0, 2]) + wbx * (cy - qy_) - wby * (cx - qx_)
+        ma = mass[i0] + s * (mass[i1] - mass[i0])
+        mb = mass[j0] + t * (mass[j1] - mass[j0])
+        m1 = seg_material[first]
+        m2 = seg_material[second]
+        kn = weight * normal_stiffness(E[m1], ra, E[m2], rb)
+        if friction:
+            f0 = ft[slot, 0]
+            f1 = ft[slot, 1]
+            f2 = ft[slot, 2]
+        else:
+            f0 = 0.0
+            f1 = 0.0
+            f2 = 0.0
+        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
+            nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
+            mu_table[m1, m2], zeta_table[m1, m2], ma * mb / (ma + mb), f0, f1, f2,
+            friction, dt)
+        if friction:
+            ft[slot, 0] = f0
+            ft[slot, 1] = f1
+            ft[slot, 2] = f2
+        active[slot] = 1
+        if k == 4:
+            crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov,
+                                   normal_stiffness(E[m1], ra, E[m2], rb), xf[slot])
+            sto = weight * 0.5 * normal_stiffness(E[m1], ra, E[m2], rb) * ov * ov
+        if first == a and not (k == 1 or k == 3):
+            fc[slot, 0] = Fx
+            fc[slot, 1] = Fy
+            fc[slot, 2] = Fz
+            par_s[slot] = s
+            par_t[slot] = t
+        else:
+            # stored as the force on segment a at its parameter
+            fc[slot, 0] = -Fx
+            fc[slot, 1] = -Fy
+            fc[slot, 2] = -Fz
+            par_s[slot] = t
+            par_t[slot] = s
+        cp[slot, 0] = cx
+        cp[slot, 1] = cy
+        cp[slot, 2] = cz
+        energy[slot] = sto
+        diss[slot] = dis
+        overlap_ratio[slot] = ov / min(ra, rb)
 
 
 @njit(cache=True, inline="always")
@@ -302,7 +616,7 @@ def add_segment_force(x, f, t, i0, i1, s, Fx, Fy, Fz, cx, cy, cz):
 
 @njit(cache=True)
 def scatter_bristle_bristle(x, f, t, bi, bj, pa, pb, n_pairs, active, fc, cp, par_s, par_t,
-                            energy, diss, overlap_ratio, stats):
+                            energy, diss, overlap_ratio, xf, stats):
     """Add the pair forces to the nodes (serial: race-free). ``stats`` gets
     [count, stored energy, dissipated energy, max overlap ratio, pair index of the max]."""
     count = 0
@@ -310,16 +624,23 @@ def scatter_bristle_bristle(x, f, t, bi, bj, pa, pb, n_pairs, active, fc, cp, pa
     e_dis = 0.0
     worst = 0.0
     worst_p = -1
-    for p in range(n_pairs):
-        if active[p] == 0:
+    for q in range(n_pairs * NSLOT):
+        if active[q] == 0:
             continue
-        a = pa[p]
-        b = pb[p]
+        p = q
+        a = pa[q // NSLOT]
+        b = pb[q // NSLOT]
         count += 1
         add_segment_force(x, f, t, bi[a], bj[a], par_s[p], fc[p, 0], fc[p, 1], fc[p, 2],
                           cp[p, 0], cp[p, 1], cp[p, 2])
         add_segment_force(x, f, t, bi[b], bj[b], par_t[p], -fc[p, 0], -fc[p, 1], -fc[p, 2],
                           cp[p, 0], cp[p, 1], cp[p, 2])
+        if q % NSLOT == NSLOT - 1:
+            for c in range(3):
+                f[bi[a], c] += xf[q, 0, c]
+                f[bj[a], c] += xf[q, 1, c]
+                f[bi[b], c] += xf[q, 2, c]
+                f[bj[b], c] += xf[q, 3, c]
         e_sto += energy[p]
         e_dis += diss[p]
         if overlap_ratio[p] > worst:
@@ -329,4 +650,4 @@ def scatter_bristle_bristle(x, f, t, bi, bj, pa, pb, n_pairs, active, fc, cp, pa
     stats[1] = e_sto
     stats[2] = e_dis
     stats[3] = worst
-    stats[4] = worst_p
+    stats[4] = worst_p // NSLOT if worst_p >= 0 else -1

@@ -13,7 +13,8 @@ Nodes = namedtuple("Nodes", [
 
 Bonds = namedtuple("Bonds", [
     "i", "j", "kn", "ks", "kb", "kt", "L0", "cn", "cs", "cb", "ct", "f", "ti", "tj",
-    "energy", "diss", "bend", "has_next", "bristle", "material", "mount", "mid", "bound"])
+    "energy", "diss", "bend", "has_next", "bristle", "material", "mount", "mid", "bound",
+    "rmax"])
 
 Roots = namedtuple("Roots", ["node", "body", "local_pos", "local_q"])
 
@@ -21,13 +22,13 @@ Bodies = namedtuple("Bodies", [
     "pos", "q", "v", "w", "L", "mass", "Ip", "motion", "f", "tq",
     "hinge_axis", "hinge_point", "hinge_inertia", "hinge_k1", "hinge_k2", "after_free",
     "seg_start", "t0", "t1", "p0", "p1", "v0", "v1", "wseg", "q0", "cursor",
-    "sphere_r", "bound_r", "watertight", "material", "collide", "pos_build", "pos0",
+    "sphere_r", "bound_r", "watertight", "material", "collide", "pos_build", "q_build", "pos0",
     "verts", "tris", "tnormal", "grid_origin", "grid_cell", "grid_dims", "grid_base", "grid_start",
-    "grid_tris", "ft_bb", "scratch"])
+    "grid_tris", "ft_bb", "scratch", "scratch2"])
 
 PairList = namedtuple("PairList", [
     "a", "b", "ft", "active", "fc", "cp", "s", "t", "energy", "diss", "ratio", "n",
-    "a2", "b2", "ft2"])
+    "a2", "b2", "ft2", "xf"])
 
 BodyList = namedtuple("BodyList", [
     "s", "b", "ft", "active", "fc", "cp", "par", "energy", "diss", "ratio", "local", "n",

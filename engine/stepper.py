@@ -16,10 +16,10 @@ import numpy as np
 from numba import njit, objmode, prange
 
 from .bodies import FIXED, FREE, HINGE, KINEMATIC, bodies_drift, bodies_half_kick
-from .body_contacts import (body_body_contacts, bristle_body_narrow, build_body_candidates,
+from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
                             carry_body_history, scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_forces, gather_bond_forces
-from .contacts import (bristle_bristle_narrow, build_pair_list, carry_history,
+from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
 from .rotations import qexp, qmul, qnormalize, qrot
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
@@ -225,11 +225,19 @@ def predicted_displacement(nd, bd, dt):
             worst = d
     wb = 0.0
     for k in range(bd.pos.shape[0]):
+        if not bd.collide[k]:
+            continue
         dx = bd.pos[k, 0] - bd.pos_build[k, 0]
         dy = bd.pos[k, 1] - bd.pos_build[k, 1]
         dz = bd.pos[k, 2] - bd.pos_build[k, 2]
         sp = math.sqrt(bd.v[k, 0] ** 2 + bd.v[k, 1] ** 2 + bd.v[k, 2] ** 2)
-        d = math.sqrt(dx * dx + dy * dy + dz * dz) + 2.0 * dt * sp
+        om = math.sqrt(bd.w[k, 0] ** 2 + bd.w[k, 1] ** 2 + bd.w[k, 2] ** 2)
+        # rotation since the build: angle of q q_build^*, times the body's reach
+        cw = abs(bd.q[k, 0] * bd.q_build[k, 0] + bd.q[k, 1] * bd.q_build[k, 1]
+                 + bd.q[k, 2] * bd.q_build[k, 2] + bd.q[k, 3] * bd.q_build[k, 3])
+        ang = 2.0 * math.acos(min(cw, 1.0))
+        d = (math.sqrt(dx * dx + dy * dy + dz * dz) + ang * bd.bound_r[k]
+             + 2.0 * dt * (sp + om * bd.bound_r[k]))
         if d > wb:
             wb = d
     return worst + wb
@@ -241,13 +249,17 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
     Returns OK or an overflow code (then nothing was changed)."""
     segment_bounds(nd.x, nd.rad, bn.i, bn.j, bn.mid, bn.bound)
     if fl.bristle_bristle:
-        n_new = build_pair_list(bn.mid, bn.bound, bn.bristle, skin, pl.a2, pl.b2)
+        n_new = build_pair_list(bn.mid, bn.bound, bn.bristle, skin, pl.a2, pl.b2, nd.x, bn.i,
+                                bn.j, bn.rmax)
         if n_new > pl.a2.shape[0]:
             pl.n[1] = n_new
             return OVERFLOW_PAIRS
     if fl.bristle_body:
         m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
-                                      bd.collide, skin, bl.s2, bl.b2)
+                                      bd.collide, skin, bl.s2, bl.b2, nd.x, bn.i, bn.j,
+                                      bn.rmax, bd.q, bd.sphere_r, bd.verts, bd.tris, bd.tnormal,
+                                      bd.grid_origin, bd.grid_cell, bd.grid_dims, bd.grid_base,
+                                      bd.grid_start, bd.grid_tris, bd.scratch2)
         if m_new > bl.s2.shape[0]:
             bl.n[1] = m_new
             return OVERFLOW_BODY
@@ -255,7 +267,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
         if fl.friction_bristle:
             carry_history(pl.a, pl.b, pl.ft, pl.n[0], pl.a2, pl.b2, pl.ft2, n_new,
                           bn.i.shape[0])
-            pl.ft[:n_new] = pl.ft2[:n_new]
+            pl.ft[:n_new * NSLOT] = pl.ft2[:n_new * NSLOT]
         pl.a[:n_new] = pl.a2[:n_new]
         pl.b[:n_new] = pl.b2[:n_new]
         pl.n[0] = n_new
@@ -263,12 +275,13 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
         if fl.friction_body:
             carry_body_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
                                bd.pos.shape[0])
-            bl.ft[:m_new] = bl.ft2[:m_new]
+            bl.ft[:m_new * BSLOT] = bl.ft2[:m_new * BSLOT]
         bl.s[:m_new] = bl.s2[:m_new]
         bl.b[:m_new] = bl.b2[:m_new]
         bl.n[0] = m_new
     nd.x_build[:] = nd.x
     bd.pos_build[:] = bd.pos
+    bd.q_build[:] = bd.q
     return OK
 
 
@@ -379,14 +392,15 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             stage_time[6] += c4 - c3
         if fl.bristle_bristle:
             n_pairs = pl.n[0]
-            bristle_bristle_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, bn.has_next,
+            bristle_bristle_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
+                                   nd.bond_next, bn.has_next,
                                    bn.material, pl.a, pl.b, n_pairs, pl.ft,
                                    fl.friction_bristle, tb.E, tb.mu, tb.kt, tb.zeta,
                                    pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
-                                   pl.ratio, dt)
+                                   pl.ratio, pl.xf, dt)
             scatter_bristle_bristle(nd.x, nd.f, nd.t, bn.i, bn.j, pl.a, pl.b, n_pairs,
                                     pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
-                                    pl.ratio, stats)
+                                    pl.ratio, pl.xf, stats)
             acc[ACC_N_BB] = stats[0]
             acc[ACC_E_BB] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]
@@ -402,7 +416,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             stage_time[3] += c5 - c4
         if fl.bristle_body:
             n_cand = bl.n[0]
-            bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, bn.has_next,
+            bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
+                                bn.has_next,
                                 bn.material, bl.s, bl.b, n_cand, bl.ft, fl.friction_body,
                                 bl.local, bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion,
                                 bd.sphere_r, bd.watertight, bd.material, bd.verts, bd.tris,

@@ -5,7 +5,8 @@ For every node the bound adds, over its bonds, the absolute entries of its rows 
 mass-normalised Euler-Bernoulli element stiffness matrix (axial ``EA/L``, shear ``12EI/L^3``,
 coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus contacts: two
 bristle-bristle contacts (``k_n = 2 E1 r1 E2 r2/(E1 r1 + E2 r2)``, seed eq. 3.6) and one body
-contact (``k_n -> 2 E r`` against a rigid body) at the node's radius. Bodies add their contacts
+contact (seed eq. 3.6 with both lengths equal to the node's radius, ``2 E_b E_k r / (E_b +
+E_k)``, against the stiffest body that can touch it). Bodies add their contacts
 with up to ``BODY_CONTACTS`` bristle segments, and sphere bodies their body-body contact.
 Gershgorin's bound is an upper bound of the true highest frequency, so the rule is
 conservative; the safety factor (default 0.5) leaves room for the contacts the estimate does
@@ -57,7 +58,8 @@ def automatic_dt(system_info: dict, safety: float) -> tuple[float, str, float]:
         if system_info["bristle_bristle"]:
             kc = kc + BRISTLE_CONTACTS_PER_NODE * E * rad * 2.0  # k_n = E r, two-sided row
         if system_info["bristle_body"]:
-            kc = kc + BODY_CONTACTS_PER_NODE * 2.0 * E * rad
+            # k_n = 2 E_b E_k r / (E_b + E_k) against the stiffest body that can be touched
+            kc = kc + BODY_CONTACTS_PER_NODE * system_info["node_E_body"] * rad
         w2_t = trans + kc / mass
         w2_r = rot + kc * rad ** 2 / inertia
         free = system_info["node_free"]

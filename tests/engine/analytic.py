@@ -1,0 +1,162 @@
+"""Closed-form and independently computed references for the physics verification tests.
+
+Nothing here imports the engine: every function is the textbook solution of a continuum
+problem (Euler-Bernoulli beam, inextensible elastica), evaluated with scipy, so that a test
+compares the engine with physics rather than with itself. All quantities are SI.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+from scipy.integrate import quad, solve_bvp
+from scipy.optimize import brentq
+
+
+# ------------------------------------------------------------------------------ sections
+def circle_area(radius: float) -> float:
+    """Area of a solid circular section, pi r^2."""
+    return math.pi * radius ** 2
+
+
+def circle_second_moment(radius: float) -> float:
+    """Second moment of area of a solid circular section about a diameter, pi r^4 / 4."""
+    return math.pi * radius ** 4 / 4.0
+
+
+# ------------------------------------------------------------------------------ statics
+def cantilever_tip_deflection(force: float, length: float, youngs_modulus: float,
+                              second_moment: float) -> float:
+    """Tip deflection of a uniform Euler-Bernoulli cantilever under a transverse tip force,
+    ``P L^3 / (3 E I)`` (small deflection, no shear)."""
+    return force * length ** 3 / (3.0 * youngs_modulus * second_moment)
+
+
+def tapered_cantilever_tip_deflection(force: float, length: float, youngs_modulus: float,
+                                      second_moment: Callable[[float], float]) -> float:
+    """Tip deflection of a non-uniform Euler-Bernoulli cantilever (clamped at x = 0) under a
+    transverse tip force P, by the unit-load (Castigliano) integral
+
+        delta = P * integral_0^L (L - x)^2 / (E I(x)) dx,
+
+    with ``second_moment(x)`` the section's I at distance x from the clamp, evaluated by
+    adaptive Gauss-Kronrod quadrature (scipy ``quad``) to ~1e-12 relative."""
+    value, abserr = quad(lambda x: (length - x) ** 2 / (youngs_modulus * second_moment(x)),
+                         0.0, length, epsabs=0.0, epsrel=1e-12, limit=200)
+    assert abserr <= 1e-10 * abs(value), "quadrature of the tapered-beam integral failed"
+    return force * value
+
+
+def conical_second_moment(root_radius: float, tip_radius: float,
+                          length: float) -> Callable[[float], float]:
+    """I(x) of a solid cone frustum whose radius tapers linearly from ``root_radius`` at
+    x = 0 to ``tip_radius`` at x = ``length``."""
+
+    def second_moment(x: float) -> float:
+        return circle_second_moment(root_radius + (tip_radius - root_radius) * x / length)
+
+    return second_moment
+
+
+# ------------------------------------------------------------------------------ elastica
+def elastica_tip(load_parameter: float, tol: float = 1e-10) -> tuple[float, float, float]:
+    """Large deflection of an inextensible, unshearable cantilever (clamped horizontally at
+    the origin) under a dead vertical tip load: the elastica.
+
+    With arc length s in [0, 1] (units of L), theta the slope angle measured downwards and
+    ``load_parameter`` alpha = P L^2 / (E I), the bending moment M(s) = P (x_tip - x(s)) gives
+
+        theta'' = -alpha cos(theta),  theta(0) = 0,  theta'(1) = 0,
+        x' = cos(theta), y' = sin(theta),  x(0) = y(0) = 0,
+
+    solved as one boundary-value problem with scipy ``solve_bvp`` (the linear solution
+    theta = alpha (s - s^2/2) as the first guess, with continuation in alpha for large loads).
+
+    Returns ``(x_tip / L, y_tip / L, theta_tip)``: the tip's horizontal position and its
+    downward deflection, both relative to L, and the tip slope (rad).
+    """
+    s = np.linspace(0.0, 1.0, 201)
+    guess = None
+    # continuation: the Newton iteration of solve_bvp converges from the linear guess only
+    # for moderate alpha, so large loads are reached in steps
+    steps = max(1, int(math.ceil(load_parameter / 2.0)))
+    for a in np.linspace(load_parameter / steps, load_parameter, steps):
+        if guess is None:
+            th = a * (s - 0.5 * s ** 2)
+            guess = np.vstack([th, a * (1.0 - s), np.cumsum(np.cos(th)) / len(s),
+                               np.cumsum(np.sin(th)) / len(s)])
+
+        def rhs(_s, y, a=a):
+            return np.vstack([y[1], -a * np.cos(y[0]), np.cos(y[0]), np.sin(y[0])])
+
+        def bc(ya, yb):
+            return np.array([ya[0], yb[1], ya[2], ya[3]])
+
+        sol = solve_bvp(rhs, bc, s, guess, tol=tol, max_nodes=100_000)
+        if not sol.success:
+            raise RuntimeError(f"elastica BVP did not converge at alpha = {a}: {sol.message}")
+        s = sol.x
+        guess = sol.y
+    return float(sol.y[2, -1]), float(sol.y[3, -1]), float(sol.y[0, -1])
+
+
+def elastica_tip_quadrature(load_parameter: float) -> tuple[float, float, float]:
+    """The same elastica as :func:`elastica_tip`, by its first integral instead of a BVP
+    solver (an independent check of the BVP reference).
+
+    Multiplying theta'' = -alpha cos(theta) by theta' and integrating with theta'(1) = 0 gives
+    theta'^2 = 2 alpha (sin(theta_0) - sin(theta)), theta_0 the tip slope. Then
+
+        sqrt(alpha) = int_0^theta0 d(theta) / sqrt(2 (sin theta0 - sin theta)),
+        x_tip / L = sqrt(2 sin(theta0) / alpha),
+        y_tip / L = int_0^theta0 sin(theta) d(theta) / sqrt(2 alpha (sin theta0 - sin theta)).
+
+    theta_0 is found with brentq; the 1/sqrt endpoint singularity is integrated exactly with
+    quad's algebraic weight. Valid for tip slopes below ~1.5 rad (alpha up to ~10)."""
+
+    def smooth(theta, theta0):
+        # sqrt((theta0 - theta) / (sin theta0 - sin theta)), finite at theta -> theta0:
+        # sin a - sin b = 2 cos((a + b)/2) sin((a - b)/2), so the ratio is h / sin(h) / cos(m)
+        h = 0.5 * (theta0 - theta)
+        m = 0.5 * (theta0 + theta)
+        sinc = 1.0 if h < 1e-8 else h / math.sin(h)
+        return math.sqrt(sinc / math.cos(m))
+
+    def length_integral(theta0, numerator):
+        val, _ = quad(lambda t: numerator(t) * smooth(t, theta0) / math.sqrt(2.0), 0.0, theta0,
+                      weight="alg", wvar=(0.0, -0.5), epsabs=0.0, epsrel=1e-13, limit=200)
+        return val
+
+    root_alpha = math.sqrt(load_parameter)
+    # the length integral diverges (logarithmically) as theta0 -> pi/2; 1e-3 short of it, it
+    # equals sqrt(alpha) for alpha ~ 20, beyond the range of use
+    theta0 = brentq(lambda t0: length_integral(t0, lambda t: 1.0) - root_alpha,
+                    1e-9, math.pi / 2 - 1e-3, xtol=1e-15, rtol=1e-15)
+    x_tip = math.sqrt(2.0 * math.sin(theta0) / load_parameter)
+    y_tip = length_integral(theta0, math.sin) / root_alpha
+    return x_tip, y_tip, theta0
+
+
+# ------------------------------------------------------------------------------ dynamics
+def cantilever_beta_l(n_modes: int = 3) -> np.ndarray:
+    """The first roots beta_n L of the clamped-free Euler-Bernoulli frequency equation
+    cos(beta L) cosh(beta L) = -1 (1.8751, 4.6941, 7.8548, ...), by brentq."""
+    def f(b):
+        return math.cos(b) * math.cosh(b) + 1.0
+    roots = []
+    for n in range(1, n_modes + 1):
+        # the n-th root lies within (n - 1/2) pi +- 0.35: f changes sign there
+        centre = (n - 0.5) * math.pi
+        roots.append(brentq(f, centre - 1.3 if n == 1 else centre - 0.35, centre + 0.35,
+                            xtol=1e-14))
+    return np.array(roots)
+
+
+def cantilever_frequencies(length: float, youngs_modulus: float, second_moment: float,
+                           density: float, area: float, n_modes: int = 3) -> np.ndarray:
+    """Bending natural frequencies (Hz) of a uniform Euler-Bernoulli cantilever,
+    f_n = (beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))."""
+    bl = cantilever_beta_l(n_modes)
+    return bl ** 2 / (2.0 * math.pi) * math.sqrt(
+        youngs_modulus * second_moment / (density * area * length ** 4))
