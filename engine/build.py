@@ -620,11 +620,11 @@ def build(scene: Scene) -> System:
             limited_by = "nothing moves elastically: dt = record_interval"
     else:
         dt = scene.run.dt
-        limited_by = "given in the scene (run.dt)"
         if dt > dt_stable:
             warnings.append(f"run.dt = {dt:.3g} s exceeds the estimated stability limit "
                             f"{dt_stable:.3g} s (set by {limited_by}); the run may "
                             f"become unstable")
+        limited_by = "given in the scene (run.dt)"
     dt = min(dt, scene.run.record_interval, scene.run.duration)
 
     skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)

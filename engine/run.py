@@ -28,6 +28,7 @@ from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HI
 from .stepper import advance
 
 ENERGY_BALANCE_LIMIT = 1.0  # |drift of (total + dissipated - work)| / largest energy seen
+ENERGY_FLOOR = 1e-18  # J: below this every energy is round-off and the balance is not judged
 
 
 @dataclass
@@ -347,7 +348,8 @@ def run(system: System, until: Optional[float] = None,
                     "kinetic", "bond", "contact", "gravity", "dissipated", "external_work")))
                 if balance0 is None:
                     balance0 = bal
-                elif e_scale > 0 and abs(bal - balance0) > ENERGY_BALANCE_LIMIT * e_scale:
+                elif (e_scale > ENERGY_FLOOR
+                      and abs(bal - balance0) > ENERGY_BALANCE_LIMIT * e_scale):
                     raise InstabilityError(
                         "energy balance", "the whole scene", system.time,
                         f"total + dissipated - external work drifted by {bal - balance0:.3g} J "

@@ -1,0 +1,106 @@
+"""Only what a scene needs is assembled, bad runs stop loudly, cancels keep their frames."""
+import threading
+
+import numpy as np
+import pytest
+
+import engine
+
+SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
+
+
+def scene(**over):
+    d = {"materials": {"silicone": SILICONE, "pla": {"youngs_modulus": 3.5e9,
+                                                     "density": 1240.0}},
+         "brushes": [{"name": "b", "material": "silicone", "rows": 1, "columns": 1,
+                      "bristle_length": 0.02, "root_radius": 0.001, "tip_radius": 0.0008,
+                      "n_nodes": 4}],
+         "run": {"duration": 0.002, "record_interval": 0.001}}
+    d.update(over)
+    return engine.parse_scene(d)
+
+
+def test_single_bristle_without_body_assembles_only_bonds():
+    s = engine.build(scene(run={"duration": 0.002, "record_interval": 0.001,
+                                "channels": ["nodes"]}))
+    assert s.stages == ["bonds"]
+    assert not s.flags.bristle_bristle and not s.flags.bristle_body
+    assert not s.flags.gravity and not s.flags.track_energy
+
+
+def test_distant_bristles_get_no_bristle_bristle_stage():
+    far = scene(brushes=[{"name": "b", "material": "silicone", "rows": 1, "columns": 2,
+                          "pitch": [0.1, 0.1], "bristle_length": 0.02,
+                          "root_radius": 0.001, "tip_radius": 0.0008, "n_nodes": 4}])
+    near = scene(brushes=[{"name": "b", "material": "silicone", "rows": 1, "columns": 2,
+                           "pitch": [0.003, 0.003], "bristle_length": 0.02,
+                           "root_radius": 0.001, "tip_radius": 0.0008, "n_nodes": 4}])
+    assert "bristle_bristle_contacts" not in engine.build(far).stages
+    assert "bristle_bristle_contacts" in engine.build(near).stages
+
+
+def test_friction_gravity_and_bodies_switch_their_stages():
+    base = dict(brushes=[{"name": "b", "material": "silicone", "rows": 2, "columns": 2,
+                          "pitch": [0.003, 0.003], "bristle_length": 0.02,
+                          "root_radius": 0.001, "tip_radius": 0.0008, "n_nodes": 4}])
+    s = engine.build(scene(**base))
+    assert "tangential_history" not in s.stages and s.pairs.ft.shape[0] == 1  # no history
+    assert "gravity" not in s.stages and "bristle_body_contacts" not in s.stages
+    s = engine.build(scene(**base, contact_pairs=[{"materials": ["silicone", "silicone"],
+                                                   "friction_angle": 0.5}],
+                           environment={"gravity": [0, 0, -9.81]},
+                           bodies=[{"name": "box", "material": "pla",
+                                    "shape": {"type": "box", "size": [0.01, 0.01, 0.01]},
+                                    "pose": {"position": [0, 0, 0.03]}}]))
+    assert {"tangential_history", "gravity", "bristle_body_contacts"} <= set(s.stages)
+
+
+def test_only_requested_channels_are_recorded(tmp_path):
+    s = engine.build(scene(run={"duration": 0.002, "record_interval": 0.001,
+                                "channels": ["energy"]}))
+    with engine.run(s, output=tmp_path / "r.h5").open() as res:
+        assert not any(c.startswith("nodes/") for c in res.channels())
+        assert "energy/total" in res.channels()
+        summary = res.summary
+    assert set(summary["assembled"]) == {"bonds", "energy_tracking"}
+    assert summary["dt_limited_by"] and summary["node_steps_per_s"] > 0
+
+
+def test_too_large_dt_stops_with_a_clear_error_and_keeps_frames(tmp_path):
+    s0 = engine.build(scene())
+    bad = scene(loads=[{"brush": "b", "node": -1, "force": [0.01, 0, 0]}],
+                run={"duration": 0.05, "record_interval": 5 * s0.dt_stable,
+                     "dt": 3 * s0.dt_stable})
+    s = engine.build(bad)
+    assert any("exceeds the estimated stability limit" in w for w in s.warnings)
+    with pytest.raises(engine.InstabilityError) as err:
+        engine.run(s, output=tmp_path / "bad.h5")
+    e = err.value
+    assert "bristle 0" in e.where and "dt" in e.advice and e.time > 0
+    with engine.open_result(tmp_path / "bad.h5") as res:
+        assert res.status == "failed"
+        assert res.n_frames >= 1
+        assert np.all(np.isfinite(res.series("nodes/positions")))
+
+
+def test_a_body_too_fast_for_the_timestep_is_refused(tmp_path):
+    fast = scene(bodies=[{"name": "bullet", "material": "pla",
+                          "shape": {"type": "sphere", "radius": 0.002},
+                          "mass_properties": {"density": 1240}, "motion": {"type": "free"},
+                          "pose": {"position": [0.0, 0.0, 0.05]},
+                          "velocity": [0.0, 0.0, -5000.0]}])
+    with pytest.raises(engine.InstabilityError) as err:
+        engine.run(engine.build(fast), output=tmp_path / "f.h5")
+    assert err.value.quantity == "body displacement per step"
+    assert "bullet" in err.value.where
+
+
+def test_cancel_stops_the_run_and_keeps_a_readable_file(tmp_path):
+    s = engine.build(scene(run={"duration": 1.0, "record_interval": 0.0005}))
+    stop = threading.Event()
+    result = engine.run(s, output=tmp_path / "c.h5", cancel=stop, progress_interval=0.0,
+                        on_progress=lambda p: stop.set())
+    assert result.status == "cancelled"
+    with result.open() as res:
+        assert res.status == "cancelled" and res.n_frames >= 1
+        assert res.time[-1] < 1.0
