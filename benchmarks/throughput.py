@@ -73,23 +73,23 @@ def wedge_scene():
 
 
 def box_scene(rows, cols, n_nodes=8):
-    """rows x cols brush pressed by a PLA box whose bottom starts 0.05 mm into the tips and
-    moves down at 0.1 m/s for 10 ms (1 mm), then holds."""
+    """rows x cols brush pressed by a PLA box whose bottom starts touching the tips and keeps
+    moving down slowly (10 mm/s; the warm-up runs 10 ms = 0.1 mm in, the whole benchmark
+    stays under 1 mm), so that the tips stay in contact without violent buckling."""
     sx, sy = cols * 0.003 + 0.01, rows * 0.003 + 0.01
     h = 0.01
     box = {"name": "box", "material": "pla", "shape": {"type": "box", "size": [sx, sy, h]},
-           "pose": {"position": [0.0, 0.0, TIP_TOP - 0.00005 + h / 2]},
+           "pose": {"position": [0.0, 0.0, TIP_TOP + h / 2]},
            "motion": {"type": "kinematic", "after": "hold",
-                      "profile": {"kind": "constant", "velocity": [0.0, 0.0, -0.1],
-                                  "duration": 0.01}}}
-    return _base(f"bench_box_{rows}x{cols}", rows, cols, n_nodes, box), None
+                      "profile": {"kind": "constant", "velocity": [0.0, 0.0, -0.01]}}}
+    return _base(f"bench_box_{rows}x{cols}", rows, cols, n_nodes, box), 0.01
 
 
-# name, scene factory, warm-up steps (when no warm-up time given), steps per timed run
+# label, scene factory -> (scene, warm-up end time), warm-up steps if no time, steps/run
 CASES = {
     "85": ("17x5 brush, 10 nodes, wedge", wedge_scene, 0, 3000),
-    "1000": ("40x25 brush, 8 nodes, box", lambda: box_scene(25, 40), 300, 1000),
-    "10000": ("100x100 brush, 8 nodes, box", lambda: box_scene(100, 100), 60, 150),
+    "1000": ("40x25 brush, 8 nodes, box", lambda: box_scene(25, 40), 0, 600),
+    "10000": ("100x100 brush, 8 nodes, box", lambda: box_scene(100, 100), 0, 150),
 }
 
 
@@ -148,7 +148,7 @@ def measure_case(key: str, threads=(1, 2), repeats: int = 3) -> dict:
         return res.summary
 
     # warm-up: compiles (or loads) every kernel and drives the body into contact
-    numba.set_num_threads(max(threads))
+    numba.set_num_threads(min(threads))
     t0 = time.perf_counter()
     go(n_steps=warm_steps, until=warm_until)
     warm_s = time.perf_counter() - t0
@@ -156,8 +156,11 @@ def measure_case(key: str, threads=(1, 2), repeats: int = 3) -> dict:
     for n in threads:
         numba.set_num_threads(n)
         go(n_steps=max(10, steps // 10))  # settle the thread pool at this count
-        runs = [go(n_steps=steps) for _ in range(repeats)]
-        contacts = int(system.acc[ACC_N_BODY])
+        runs, seen = [], []
+        for _ in range(repeats):
+            runs.append(go(n_steps=steps))
+            seen.append(int(system.acc[ACC_N_BODY]))
+        contacts = min(seen)
         if contacts <= 0:
             raise RuntimeError(f"{label}: no bristle-body contact during the timed runs")
         med = sorted(runs, key=lambda s: s["steps_per_s"])[len(runs) // 2]

@@ -22,10 +22,11 @@ def restitution_damping_ratio(e: float) -> float:
 
 @njit(cache=True, inline="always")
 def normal_stiffness(E1, l1, E2, l2):
-    """Seed eq. 3.6: two springs E_i l_i in series (l the characteristic lengths)."""
+    """k_n = 2 E1 l1 E2 l2 / (E1 l1 + E2 l2): two springs in series (seed eqs. 3.5-3.6) with
+    characteristic lengths l_i = 2 r_i (DESIGN §3), so that equal materials give k_n = E r."""
     a = E1 * l1
     b = E2 * l2
-    return a * b / (a + b)
+    return 2.0 * a * b / (a + b)
 
 
 @njit(cache=True, inline="always")

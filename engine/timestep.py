@@ -3,7 +3,7 @@ linearised system, ``dt = safety * 2 / omega_max`` (2 / omega is leapfrog's stab
 
 For every node the bound adds, over its bonds, the absolute entries of its rows of the
 mass-normalised Euler-Bernoulli element stiffness matrix (axial ``EA/L``, shear ``12EI/L^3``,
-coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus contacts: two
+coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus contacts: four
 bristle-bristle contacts (``k_n = 2 E1 r1 E2 r2/(E1 r1 + E2 r2)``, seed eq. 3.6) and one body
 contact (seed eq. 3.6 with both lengths equal to the node's radius, ``2 E_b E_k r / (E_b +
 E_k)``, against the stiffest body that can touch it). Bodies add their contacts
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-BRISTLE_CONTACTS_PER_NODE = 2
+BRISTLE_CONTACTS_PER_NODE = 4  # a node in a square brush can touch four neighbours
 BODY_CONTACTS_PER_NODE = 1
 BODY_CONTACTS = 100
 
