@@ -15,9 +15,10 @@ from numba import njit, prange
 
 from .bodies import FIXED, KINEMATIC
 from .bonds import PARALLEL_MIN
-from .contact_law import contact_force, normal_stiffness
-from .contacts import add_segment_force, joint_owned_elsewhere
-from .geometry import point_triangle_closest, segment_point_closest, segment_triangle_closest
+from .contact_law import (clear_history, contact_force, contact_with_history,
+                          normal_stiffness, smoothstep)
+from .contacts import add_segment_force
+from .geometry import segment_point_closest, segment_triangle_closest
 from .rotations import qrot, qrot_inv
 
 
@@ -188,15 +189,6 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
 
 
-@njit(cache=True, inline="always")
-def _fade(u):
-    if u <= 0.0:
-        return 0.0
-    if u >= 1.0:
-        return 1.0
-    return u * u * (3.0 - 2.0 * u)
-
-
 @njit(cache=True)
 def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                             cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
@@ -222,10 +214,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         slot = c * BSLOT + slot_k
         active[slot] = 0
         if slot_k == 1 and seg_has_next[sg]:
-            if friction:
-                ft[slot, 0] = 0.0
-                ft[slot, 1] = 0.0
-                ft[slot, 2] = 0.0
+            clear_history(ft, slot, friction)
             continue
         weight = 1.0
         if sphere_r[k] > 0.0:
@@ -235,7 +224,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                 s = 1.0
             else:
                 s = segment_point_closest(x[i0], x[i1], bpos[k])
-                weight = _fade(min(s, 1.0 - s) / BODY_CROSS_END)
+                weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
             px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
             py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
             pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
@@ -246,10 +235,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             d = math.sqrt(dx * dx + dy * dy + dz * dz)
             ov = r + sphere_r[k] - d
             if ov <= 0.0 or weight <= 0.0:
-                if friction:
-                    ft[slot, 0] = 0.0
-                    ft[slot, 1] = 0.0
-                    ft[slot, 2] = 0.0
+                clear_history(ft, slot, friction)
                 continue
             if d > 1e-12 * sphere_r[k]:
                 nx = dx / d
@@ -283,12 +269,9 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                 # segment's interior touches (or soon touches) its nodes too
                 if tri >= 0 and min(u, min(vv, ww)) > 1e-9:
                     tri = -1
-                weight = _fade(min(s, 1.0 - s) / BODY_CROSS_END)
+                weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
             if tri < 0 or weight <= 0.0:
-                if friction:
-                    ft[slot, 0] = 0.0
-                    ft[slot, 1] = 0.0
-                    ft[slot, 2] = 0.0
+                clear_history(ft, slot, friction)
                 continue
             r = rad[i0] + s * (rad[i1] - rad[i0])
             psx = l0[0] + s * (l1[0] - l0[0])
@@ -327,10 +310,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                     else:
                         nlx, nly, nlz = 0.0, 0.0, 1.0
             if ov <= 0.0:
-                if friction:
-                    ft[slot, 0] = 0.0
-                    ft[slot, 1] = 0.0
-                    ft[slot, 2] = 0.0
+                clear_history(ft, slot, friction)
                 continue
             # contact point: middle of the overlap, between the body surface and the capsule's
             clx = ptx + 0.5 * (gx - nlx * r)
@@ -364,21 +344,9 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         m1 = seg_material[sg]
         m2 = body_material[k]
         kn = weight * normal_stiffness(E[m1], r, E[m2], r)
-        if friction:
-            f0 = ft[slot, 0]
-            f1 = ft[slot, 1]
-            f2 = ft[slot, 2]
-        else:
-            f0 = 0.0
-            f1 = 0.0
-            f2 = 0.0
-        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
-            nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
-            mu_table[m1, m2], zeta_table[m1, m2], meff, f0, f1, f2, friction, dt)
-        if friction:
-            ft[slot, 0] = f0
-            ft[slot, 1] = f1
-            ft[slot, 2] = f2
+        Fx, Fy, Fz, dis, sto = contact_with_history(
+            ft, slot, friction, nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn,
+            kt_table[m1, m2] * kn, mu_table[m1, m2], zeta_table[m1, m2], meff, dt)
         active[slot] = 1
         fc[slot, 0] = Fx
         fc[slot, 1] = Fy

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -16,7 +15,7 @@ from . import meshes
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
 from .contact_law import restitution_damping_ratio
 from .errors import SceneError
-from .rotations import matrix_to_quat, qexp, qlog, qmul, quat_from_two_vectors, quat_to_matrix
+from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Nodes, PairList,
                     Roots, Tables)

@@ -93,3 +93,44 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
         fty = 0.0
         ftz = 0.0
     return Fx, Fy, Fz, ftx, fty, ftz, diss, stored
+
+
+@njit(cache=True, inline="always")
+def smoothstep(u):
+    """0 below 0, 1 above 1, 3u^2 - 2u^3 between: the weights that fade contacts in and out."""
+    if u <= 0.0:
+        return 0.0
+    if u >= 1.0:
+        return 1.0
+    return u * u * (3.0 - 2.0 * u)
+
+
+@njit(cache=True, inline="always")
+def clear_history(ft, slot, friction):
+    """A contact slot that is not touching forgets its tangential spring."""
+    if friction:
+        ft[slot, 0] = 0.0
+        ft[slot, 1] = 0.0
+        ft[slot, 2] = 0.0
+
+
+@njit(cache=True, inline="always")
+def contact_with_history(ft, slot, friction, nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu,
+                         zeta, meff, dt):
+    """``contact_force`` reading and updating the tangential history kept in ``ft[slot]``.
+    Returns (Fx, Fy, Fz, dissipated, stored)."""
+    if friction:
+        f0 = ft[slot, 0]
+        f1 = ft[slot, 1]
+        f2 = ft[slot, 2]
+    else:
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+    Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt,
+                                                     mu, zeta, meff, f0, f1, f2, friction, dt)
+    if friction:
+        ft[slot, 0] = f0
+        ft[slot, 1] = f1
+        ft[slot, 2] = f2
+    return Fx, Fy, Fz, dis, sto

@@ -20,94 +20,8 @@ import numpy as np
 from numba import njit, prange
 
 from .bonds import PARALLEL_MIN
-from .contact_law import contact_force, normal_stiffness
+from .contact_law import clear_history, contact_with_history, normal_stiffness, smoothstep
 from .geometry import segment_point_closest, segment_segment_closest
-
-
-@njit(cache=True, inline="always")
-def joint_owned_elsewhere(x, rad, bi, bj, bond_prev, seg, s, has_next, qx, qy, qz):
-    """True if the closest point of segment ``seg`` (parameter s) to the point q is a joint
-    that another segment of the same bristle represents, or that is not a local minimum of the
-    distance along the bristle. Keeping only local minima (and a joint once) makes the set of
-    contacts change continuously: where a contact moves from one segment to the next, both
-    see the same point at the same distance."""
-    if s >= 1.0 and has_next:
-        return True  # the next segment sees this joint at its start
-    if s <= 0.0:
-        pb = bond_prev[bi[seg]]
-        if pb >= 0:
-            j = bi[seg]
-            i = bi[pb]
-            # does moving back into the previous segment increase the overlap with q
-            # (the surface comes closer, or the radius grows faster than the axis recedes)?
-            ex = x[j, 0] - qx
-            ey = x[j, 1] - qy
-            ez = x[j, 2] - qz
-            dist = math.sqrt(ex * ex + ey * ey + ez * ez)
-            if dist > 0.0:
-                back = (ex * (x[j, 0] - x[i, 0]) + ey * (x[j, 1] - x[i, 1])
-                        + ez * (x[j, 2] - x[i, 2])) / dist + (rad[i] - rad[j])
-                if back > 0.0:
-                    return True
-    return False
-
-
-@njit(cache=True)
-def max_overlap_params(x, i0, i1, j0, j1, r0a, r1a, r0b, r1b, s, t):
-    """Refine (s, t) from the axes' closest points to the maximum of the overlap
-    ``ra(s) + rb(t) - |P(s) - Q(t)|`` of two tapered capsules (Newton on the 2x2 system,
-    clamped to the unit square). At that maximum the contact force kn * overlap * n is the
-    exact gradient of the contact energy, so tapered bristles conserve energy too."""
-    dar = r1a - r0a
-    dbr = r1b - r0b
-    if dar == 0.0 and dbr == 0.0:
-        return s, t
-    d1x = x[i1, 0] - x[i0, 0]
-    d1y = x[i1, 1] - x[i0, 1]
-    d1z = x[i1, 2] - x[i0, 2]
-    d2x = x[j1, 0] - x[j0, 0]
-    d2y = x[j1, 1] - x[j0, 1]
-    d2z = x[j1, 2] - x[j0, 2]
-    a11 = d1x * d1x + d1y * d1y + d1z * d1z
-    a22 = d2x * d2x + d2y * d2y + d2z * d2z
-    a12 = d1x * d2x + d1y * d2y + d1z * d2z
-    for _ in range(4):
-        rx = x[i0, 0] + s * d1x - x[j0, 0] - t * d2x
-        ry = x[i0, 1] + s * d1y - x[j0, 1] - t * d2y
-        rz = x[i0, 2] + s * d1z - x[j0, 2] - t * d2z
-        d = math.sqrt(rx * rx + ry * ry + rz * rz)
-        if d <= 1e-300:
-            return s, t
-        rd1 = (rx * d1x + ry * d1y + rz * d1z) / d
-        rd2 = (rx * d2x + ry * d2y + rz * d2z) / d
-        g1 = dar - rd1           # d overlap / ds
-        g2 = dbr + rd2           # d overlap / dt
-        h11 = (a11 - rd1 * rd1) / d  # Hessian of the distance
-        h22 = (a22 - rd2 * rd2) / d
-        h12 = (-a12 + rd1 * rd2) / d
-        free_s = not ((s <= 0.0 and g1 < 0.0) or (s >= 1.0 and g1 > 0.0))
-        free_t = not ((t <= 0.0 and g2 < 0.0) or (t >= 1.0 and g2 > 0.0))
-        det = h11 * h22 - h12 * h12
-        if free_s and free_t and det > 1e-12 * (h11 * h22 + 1e-300):
-            ds = (h22 * g1 - h12 * g2) / det
-            dt_ = (h11 * g2 - h12 * g1) / det
-        elif free_s and h11 > 0.0:
-            ds = g1 / h11
-            dt_ = 0.0
-        elif free_t and h22 > 0.0:
-            ds = 0.0
-            dt_ = g2 / h22
-        else:
-            # flat direction (parallel axes): the overlap grows linearly: go to the end
-            ds = (1.0 if g1 > 0.0 else -1.0) if free_s else 0.0
-            dt_ = (1.0 if g2 > 0.0 else -1.0) if free_t else 0.0
-        s_new = min(max(s + ds, 0.0), 1.0)
-        t_new = min(max(t + dt_, 0.0), 1.0)
-        if abs(s_new - s) < 1e-12 and abs(t_new - t) < 1e-12:
-            return s_new, t_new
-        s = s_new
-        t = t_new
-    return s, t
 
 
 @njit(cache=True)
@@ -278,15 +192,6 @@ def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg
                            overlap_ratio, xf, dt)
 
 
-@njit(cache=True, inline="always")
-def _smooth01(u):
-    if u <= 0.0:
-        return 0.0
-    if u >= 1.0:
-        return 1.0
-    return u * u * (3.0 - 2.0 * u)
-
-
 @njit(cache=True)
 def point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t):
     """Refine t (start: the closest point of segment j0-j1 to p) to the maximum of
@@ -375,12 +280,12 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
          x[i0, 2] + s * d1[2] - x[j0, 2] - t * d2[2])
     sin2 = 1.0 - a12 * a12 / (a11 * a22)
     u_ang = (sin2 - CROSS_SIN2_LO) / (CROSS_SIN2_HI - CROSS_SIN2_LO)
-    chi = _smooth01(u_ang)
+    chi = smoothstep(u_ang)
     dchi = _dsmooth01(u_ang) / (CROSS_SIN2_HI - CROSS_SIN2_LO)
     ms = min(s, 1.0 - s)
     mt = min(t, 1.0 - t)
-    ps = _smooth01(ms / CROSS_END)
-    pt = _smooth01(mt / CROSS_END)
+    ps = smoothstep(ms / CROSS_END)
+    pt = smoothstep(mt / CROSS_END)
     dps = _dsmooth01(ms / CROSS_END) / CROSS_END * (1.0 if s < 0.5 else -1.0)
     dpt = _dsmooth01(mt / CROSS_END) / CROSS_END * (1.0 if t < 0.5 else -1.0)
     w = chi * ps * pt
@@ -407,15 +312,6 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
 
 
 @njit(cache=True)
-def _clear(slot, active, ft, friction):
-    active[slot] = 0
-    if friction:
-        ft[slot, 0] = 0.0
-        ft[slot, 1] = 0.0
-        ft[slot, 2] = 0.0
-
-
-@njit(cache=True)
 def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next, seg_material,
                    pa, pb, ft, friction, E, mu_table, kt_table, zeta_table,
                    active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
@@ -427,13 +323,15 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         if k == 0 or k == 2:
             # a node of segment a against segment b
             if k == 2 and seg_has_next[a]:
-                _clear(slot, active, ft, friction)
+                active[slot] = 0
+                clear_history(ft, slot, friction)
                 continue
             first, second = a, b
             s = 0.0 if k == 0 else 1.0
         elif k == 1 or k == 3:
             if k == 3 and seg_has_next[b]:
-                _clear(slot, active, ft, friction)
+                active[slot] = 0
+                clear_history(ft, slot, friction)
                 continue
             first, second = b, a
             s = 0.0 if k == 1 else 1.0
@@ -453,7 +351,8 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             ovb, t = _point_overlap(x, rad, j0, j1, px_, py_, pz_)
             if ovb + rad[node] <= 0.0 or not best_of_neighbours(
                     x, rad, bi, bj, bond_prev, bond_next, second, ovb, px_, py_, pz_):
-                _clear(slot, active, ft, friction)
+                active[slot] = 0
+                clear_history(ft, slot, friction)
                 continue
             qx_ = x[j0, 0] + t * (x[j1, 0] - x[j0, 0])
             qy_ = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
@@ -472,11 +371,12 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             n1 = d1x * d1x + d1y * d1y + d1z * d1z
             n2 = d2x * d2x + d2y * d2y + d2z * d2z
             sin2 = (cx_ * cx_ + cy_ * cy_ + cz_ * cz_) / (n1 * n2) if n1 * n2 > 0 else 0.0
-            weight = (_smooth01((sin2 - CROSS_SIN2_LO) / (CROSS_SIN2_HI - CROSS_SIN2_LO))
-                      * _smooth01(min(s, 1.0 - s) / CROSS_END)
-                      * _smooth01(min(t, 1.0 - t) / CROSS_END))
+            weight = (smoothstep((sin2 - CROSS_SIN2_LO) / (CROSS_SIN2_HI - CROSS_SIN2_LO))
+                      * smoothstep(min(s, 1.0 - s) / CROSS_END)
+                      * smoothstep(min(t, 1.0 - t) / CROSS_END))
             if weight <= 0.0:
-                _clear(slot, active, ft, friction)
+                active[slot] = 0
+                clear_history(ft, slot, friction)
                 xf[slot, :, :] = 0.0
                 continue
             px_ = x[i0, 0] + s * d1x
@@ -493,7 +393,8 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         d = math.sqrt(dx * dx + dy * dy + dz * dz)
         ov = ra + rb - d
         if ov <= 0.0:
-            _clear(slot, active, ft, friction)
+            active[slot] = 0
+            clear_history(ft, slot, friction)
             continue
         if d > 1e-9 * (ra + rb):
             nx = dx / d
@@ -543,22 +444,10 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         m1 = seg_material[first]
         m2 = seg_material[second]
         kn = weight * normal_stiffness(E[m1], ra, E[m2], rb)
-        if friction:
-            f0 = ft[slot, 0]
-            f1 = ft[slot, 1]
-            f2 = ft[slot, 2]
-        else:
-            f0 = 0.0
-            f1 = 0.0
-            f2 = 0.0
-        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
-            nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn, kt_table[m1, m2] * kn,
-            mu_table[m1, m2], zeta_table[m1, m2], ma * mb / (ma + mb), f0, f1, f2,
-            friction, dt)
-        if friction:
-            ft[slot, 0] = f0
-            ft[slot, 1] = f1
-            ft[slot, 2] = f2
+        Fx, Fy, Fz, dis, sto = contact_with_history(
+            ft, slot, friction, nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn,
+            kt_table[m1, m2] * kn, mu_table[m1, m2], zeta_table[m1, m2], ma * mb / (ma + mb),
+            dt)
         active[slot] = 1
         if k == 4:
             crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov,

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import tempfile
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional, Union
 
@@ -17,11 +17,11 @@ import numpy as np
 
 from .bodies import FREE, HINGE
 from .build import System, grow_lists
-from .errors import InstabilityError, RunCancelled
+from .errors import InstabilityError
 from .recorder import Recorder
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
                     ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
-                    ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
+                    ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
                     FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE, FAIL_OVERLAP_BB,
                     FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK, OVERFLOW_BODY, OVERFLOW_PAIRS,
                     STAGES)
@@ -386,7 +386,7 @@ def run(system: System, until: Optional[float] = None,
             elif elapsed > 0.2:
                 chunk_cap = max(16, chunk_cap // 2)
             if (system.steps - steps0) % rec_every == 0 or done == total_steps:
-                fr = record()
+                record()
                 stop = sc.run.stop
                 if stop is not None and system.time >= stop.min_time:
                     if stop.quantity == "kinetic_energy":
@@ -452,7 +452,6 @@ _STAGE_OF_SLOT = {"neighbour_list": "neighbour_list", "bonds": "bonds",
 
 def _summary(system: System, status: str, wall: float, steps: int, stage_time0, timed0,
              record_wall: float, frames: int) -> dict:
-    timed = system.acc[ACC_TIMED_STEPS] - timed0
     spent = system.stage_time - stage_time0
     # the sampled stage times give the proportions; they are scaled to the measured wall
     # time of the compiled loop (the sampling clock itself would inflate tiny steps)

@@ -15,15 +15,14 @@ import time
 import numpy as np
 from numba import njit, objmode, prange
 
-from .bodies import FIXED, FREE, HINGE, KINEMATIC, bodies_drift, bodies_half_kick
+from .bodies import KINEMATIC, bodies_drift, bodies_half_kick
 from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
                             carry_body_history, scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_forces, gather_bond_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
 from .rotations import qexp, qmul, qnormalize, qrot
-from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
-                    ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
+from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
                     ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
                     FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
                     FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK,
