@@ -59,17 +59,17 @@ def _base(name, rows, cols, n_nodes, body, duration=10.0):
 
 
 def wedge_scene():
-    """The seed's 17 x 5 brush with 10 nodes per bristle; the 60 degree PLA wedge starts
-    touching the tips and moves down 3.5 mm at 0.1 m/s, then holds (the warm-up runs it
-    there, so all timed runs are in contact)."""
+    """The seed's 17 x 5 brush with 10 nodes per bristle; the 60 degree PLA wedge's edge
+    starts at the tip tops and keeps moving down at 20 mm/s (2 mm by the end of
+    the warm-up, about 5 mm at the end of the benchmark), so that it keeps pressing bristles
+    rather than letting them spring off and lose contact."""
     wedge = {"name": "wedge", "material": "pla",
              "shape": {"type": "wedge", "angle": 1.0471975511965976, "height": 0.02,
                        "length": 0.02},
              "pose": {"position": [0.0, 0.0005, TIP_TOP]},
-             "motion": {"type": "kinematic", "after": "hold",
-                        "profile": {"kind": "constant", "velocity": [0.0, 0.0, -0.1],
-                                    "duration": 0.035}}}
-    return _base("bench_wedge_17x5", 17, 5, 10, wedge), 0.035
+             "motion": {"type": "kinematic",
+                        "profile": {"kind": "constant", "velocity": [0.0, 0.0, -0.02]}}}
+    return _base("bench_wedge_17x5", 17, 5, 10, wedge), 0.1
 
 
 def box_scene(rows, cols, n_nodes=8):
@@ -87,7 +87,7 @@ def box_scene(rows, cols, n_nodes=8):
 
 # label, scene factory -> (scene, warm-up end time), warm-up steps if no time, steps/run
 CASES = {
-    "85": ("17x5 brush, 10 nodes, wedge", wedge_scene, 0, 3000),
+    "85": ("17x5 brush, 10 nodes, wedge", wedge_scene, 0, 2000),
     "1000": ("40x25 brush, 8 nodes, box", lambda: box_scene(25, 40), 0, 600),
     "10000": ("100x100 brush, 8 nodes, box", lambda: box_scene(100, 100), 0, 150),
 }
