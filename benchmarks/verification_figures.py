@@ -20,6 +20,7 @@ sys.path.insert(0, str(ROOT))
 
 import analytic  # noqa: E402
 import test_verification_beams as beams  # noqa: E402
+import test_verification_bodies as bodies  # noqa: E402
 
 
 def timed(fn, *args):
@@ -74,6 +75,21 @@ def main() -> None:
         r = "" if ref_ is None else f"{ref_:12.6g}"
         w = "" if math.isnan(wall) else f"{wall:7.2f}"
         print(f"{name:46s} {m:>12s} {r:>12s} {err:10.2e} {w:>7s}")
+    print()
+    print("Conservation and friction (independent references: exact conservation laws, Coulomb)")
+    tests = [bodies.test_intermediate_axis_flip_conserves_momentum_and_energy,
+             bodies.test_two_spheres_striking_a_free_cube_conserve_angular_momentum,
+             bodies.test_cube_spinning_between_two_free_brushes_conserves_angular_momentum,
+             lambda: bodies.test_bristle_on_incline_sticks_or_slides(20.0, False),
+             lambda: bodies.test_bristle_on_incline_sticks_or_slides(40.0, True),
+             bodies.test_energy_is_conserved_in_a_vibrating_brush_with_elastic_contacts]
+    for test in tests:
+        t0 = time.perf_counter()
+        test()
+        wall = time.perf_counter() - t0
+        print(f"  ({wall:.2f} s)")
+    for name, value in bodies.FIGURES.items():
+        print(f"{name:52s} {value:10.2e}")
 
 
 if __name__ == "__main__":

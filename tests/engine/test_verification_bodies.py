@@ -13,6 +13,7 @@ import engine
 from engine.rotations import quat_to_matrix
 
 STEEL = {"youngs_modulus": 200e9, "poisson_ratio": 0.3, "density": 7800.0}
+FIGURES: dict[str, float] = {}  # measured values, printed by benchmarks/verification_figures.py
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
 
 
@@ -54,6 +55,8 @@ def test_intermediate_axis_flip_conserves_momentum_and_energy():
     assert w_body_y[0] > 4.9
     assert w_body_y.min() < -4.9, "the body must flip about its intermediate axis"
     L1 = engine.angular_momentum(system)
+    FIGURES["flip: |dL|/|L|"] = float(np.linalg.norm(L1 - L0) / np.linalg.norm(L0))
+    FIGURES["flip: max |dE|/E"] = float(np.max(np.abs(kinetic - kinetic[0])) / kinetic[0])
     # the splitting integrator only rotates L's body-frame image: round-off level
     assert np.linalg.norm(L1 - L0) / np.linalg.norm(L0) < 1e-6
     # symplectic splitting: bounded O(dt^2) energy error, far below the 1e-4
@@ -83,6 +86,7 @@ def test_two_spheres_striking_a_free_cube_conserve_angular_momentum():
     assert "body_body_contacts" in system.stages
     about = np.array([0.3, -0.2, 0.1])  # any fixed point: the law holds about every point
     L = _run_collecting(system, 0.03, 0.003, lambda s: engine.angular_momentum(s, about))
+    FIGURES["two spheres hit a free cube: max |dL|/|L|"] = _relative_drift(L)
     cube_w = system.bodies.w[0]
     assert not np.allclose(cube_w, [0.0, 0.0, 1.0], atol=1e-3), "the spheres must hit the cube"
     # relative change allowed: 1e-6 (the bound); round-off is ~1e-13 per step
@@ -124,6 +128,7 @@ def test_cube_spinning_between_two_free_brushes_conserves_angular_momentum():
     assert {"mounted_roots", "bristle_body_contacts", "tangential_history"} <= set(
         system.stages)
     L = _run_collecting(system, 0.05, 0.005, lambda s: engine.angular_momentum(s))
+    FIGURES["cube between two free brushes: max |dL|/|L|"] = _relative_drift(L)
     # the cube must actually have been slowed by the bristles
     assert system.bodies.w[2, 2] < 19.0
     # 1e-6: the bound; all contact and bond actions are equal and opposite about one
@@ -170,10 +175,12 @@ def test_bristle_on_incline_sticks_or_slides(tilt_deg, expect_slide):
     if expect_slide:
         a_fit = 2.0 * np.polyfit(t[settled], x[settled], 2)[0]
         a_ref = g * (math.sin(th) - math.tan(phi) * math.cos(th))
+        FIGURES["incline 40 deg: a / g(sin - mu cos) - 1"] = float(a_fit / a_ref - 1)
         # 1 %: the bound (measured agreement is ~1e-6)
         assert a_fit == pytest.approx(a_ref, rel=0.01)
         assert x[-1] > 1e-4  # it really moved
     else:
+        FIGURES["incline 20 deg: creep (m)"] = float(np.ptp(x[settled]))
         # sticking: only the tangential contact springs deflect (F_t / k_t ~ 1e-8 m)
         assert np.ptp(x[settled]) < 1e-6
 
@@ -209,6 +216,8 @@ def test_energy_is_conserved_in_a_vibrating_brush_with_elastic_contacts():
     tenth = max(1, len(e) // 10)
     drift = abs(e[-tenth:].mean() - e[:tenth].mean()) / e.mean()
     band = (e.max() - e.min()) / e.mean()
+    FIGURES["vibrating brush, 1e5 steps: energy drift"] = float(drift)
+    FIGURES["vibrating brush, 1e5 steps: energy band"] = float(band)
     # 0.5 %: the bound on the secular drift over 1e5 steps; leapfrog's energy also
     # oscillates within a bounded O(dt^2) band, 2 % at the default dt here (0.1 % at dt / 4)
     assert drift < 0.005, f"energy drift {drift:.3%}"
