@@ -39,6 +39,7 @@ class BrushInfo:
     base_orientation: np.ndarray
     mount: int                # body index or -1
     root_index: np.ndarray    # indices into the Roots bundle
+    base_local: np.ndarray    # base origin in the mount body's frame (world if not mounted)
 
 
 @dataclass
@@ -451,8 +452,9 @@ def build(scene: Scene) -> System:
                 n_bristle += 1
                 bristle_first.append(n_node)
                 bristle_brush.append(bidx)
+        base_local = (_rot(q[mount]).T @ (pb_w - pos[mount])) if mount >= 0 else pb_w
         brushes.append(BrushInfo(br.name, first_bristle, br.n_bristles, n, first_node, pb_w,
-                                 qb_w, mount, np.asarray(roots_here, np.int64)))
+                                 qb_w, mount, np.asarray(roots_here, np.int64), base_local))
 
     N = n_node
     cat = lambda lst, shape, dt=float: (np.concatenate(lst).astype(dt) if lst

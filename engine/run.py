@@ -19,6 +19,7 @@ from .bodies import FREE, HINGE
 from .build import System, grow_lists
 from .errors import InstabilityError
 from .recorder import Recorder
+from .rotations import quat_to_matrix
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
                     ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
                     ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
@@ -164,12 +165,7 @@ def root_reactions(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         nodes = rt.node[b.root_index]
         f = nd.f[nodes]
         if b.mount >= 0:
-            from .rotations import quat_to_matrix
-            k = b.mount
-            if not hasattr(b, "_base_local"):
-                R0 = quat_to_matrix(system._q_initial[k])
-                b._base_local = R0.T @ (b.base_position - system._pos_initial[k])
-            origin = bd.pos[k] + quat_to_matrix(bd.q[k]) @ b._base_local
+            origin = bd.pos[b.mount] + quat_to_matrix(bd.q[b.mount]) @ b.base_local
         else:
             origin = b.base_position
         force = -f.sum(axis=0)
@@ -303,9 +299,6 @@ def run(system: System, until: Optional[float] = None,
     sc = system.scene
     until = sc.run.duration if until is None else float(until)
     dt = system.dt
-    if not hasattr(system, "_pos_initial"):
-        system._pos_initial = system.bodies.pos0.copy()
-        system._q_initial = system.bodies.q.copy()
     t_start = system.time
     total_steps = max(0, int(round((until - t_start) / dt)))
     rec_every = max(1, int(round(sc.run.record_interval / dt)))
