@@ -17,7 +17,7 @@ from .bodies import FIXED, KINEMATIC
 from .bonds import PARALLEL_MIN
 from .contact_law import (clear_history, contact_force, contact_with_history,
                           normal_stiffness, smoothstep)
-from .contacts import add_segment_force
+from .contacts import add_segment_force, segment_point_velocity
 from .geometry import segment_point_closest, segment_triangle_closest
 from .rotations import qrot, qrot_inv
 
@@ -324,12 +324,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
             py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
             pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
-        wx_ = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
-        wy_ = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
-        wz_ = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
-        vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + wy_ * (cz - pz) - wz_ * (cy - py)
-        vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + wz_ * (cx - px) - wx_ * (cz - pz)
-        vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wx_ * (cy - py) - wy_ * (cx - px)
+        vax, vay, vaz = segment_point_velocity(v, w, i0, i1, s, px, py, pz, cx, cy, cz)
         rx = cx - bpos[k, 0]
         ry = cy - bpos[k, 1]
         rz = cz - bpos[k, 2]

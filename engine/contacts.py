@@ -427,18 +427,8 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         cx = px_ - nx * h
         cy = py_ - ny * h
         cz = pz_ - nz * h
-        wax = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
-        way = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
-        waz = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
-        wbx = w[j0, 0] + t * (w[j1, 0] - w[j0, 0])
-        wby = w[j0, 1] + t * (w[j1, 1] - w[j0, 1])
-        wbz = w[j0, 2] + t * (w[j1, 2] - w[j0, 2])
-        vax = v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + way * (cz - pz_) - waz * (cy - py_)
-        vay = v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + waz * (cx - px_) - wax * (cz - pz_)
-        vaz = v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wax * (cy - py_) - way * (cx - px_)
-        vbx = v[j0, 0] + t * (v[j1, 0] - v[j0, 0]) + wby * (cz - qz_) - wbz * (cy - qy_)
-        vby = v[j0, 1] + t * (v[j1, 1] - v[j0, 1]) + wbz * (cx - qx_) - wbx * (cz - qz_)
-        vbz = v[j0, 2] + t * (v[j1, 2] - v[j0, 2]) + wbx * (cy - qy_) - wby * (cx - qx_)
+        vax, vay, vaz = segment_point_velocity(v, w, i0, i1, s, px_, py_, pz_, cx, cy, cz)
+        vbx, vby, vbz = segment_point_velocity(v, w, j0, j1, t, qx_, qy_, qz_, cx, cy, cz)
         ma = mass[i0] + s * (mass[i1] - mass[i0])
         mb = mass[j0] + t * (mass[j1] - mass[j0])
         m1 = seg_material[first]
@@ -472,6 +462,19 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         energy[slot] = sto
         diss[slot] = dis
         overlap_ratio[slot] = ov / min(ra, rb)
+
+
+@njit(cache=True, inline="always")
+def segment_point_velocity(v, w, i0, i1, s, px, py, pz, cx, cy, cz):
+    """Velocity of the material point at c carried by segment i0-i1: the axis point at
+    parameter s (p) moves with the interpolated node velocity, and c turns about it with the
+    interpolated angular velocity."""
+    wx = w[i0, 0] + s * (w[i1, 0] - w[i0, 0])
+    wy = w[i0, 1] + s * (w[i1, 1] - w[i0, 1])
+    wz = w[i0, 2] + s * (w[i1, 2] - w[i0, 2])
+    return (v[i0, 0] + s * (v[i1, 0] - v[i0, 0]) + wy * (cz - pz) - wz * (cy - py),
+            v[i0, 1] + s * (v[i1, 1] - v[i0, 1]) + wz * (cx - px) - wx * (cz - pz),
+            v[i0, 2] + s * (v[i1, 2] - v[i0, 2]) + wx * (cy - py) - wy * (cx - px))
 
 
 @njit(cache=True, inline="always")
