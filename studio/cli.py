@@ -12,6 +12,7 @@ another engine error), 2 bad input (an invalid scene, a bad command line), 130 c
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import signal
@@ -28,6 +29,11 @@ EXIT_BAD_INPUT = 2
 EXIT_CANCELLED = 130
 
 DEMO_DIR = "brush-studio-demo"
+
+# Modules that add their own subcommands: each has ``register(subparsers)`` and imports its
+# heavy dependencies (dask, fastapi, viser) only inside the command it runs.
+COMMAND_MODULES: tuple[str, ...] = (
+)
 
 
 # ----------------------------------------------------------------------------- output helpers
@@ -514,6 +520,9 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="describe a result file")
     i.add_argument("result", metavar="RESULT.h5")
     i.set_defaults(func=_cmd_info)
+
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
     return p
 
 
