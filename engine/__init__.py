@@ -20,11 +20,12 @@ ensure_fresh_cache()
 
 from .build import System, build  # noqa: E402
 from .errors import BrushStudioError, InstabilityError, SceneError
+from .motion import prescribe_motion
 from .results import ResultFile, open_result
 from .run import Progress, RunResult, angular_momentum, energies, linear_momentum, run
 from .spec import SCHEMA_VERSION, Scene, load_scene, parse_scene, save_scene
 
 __all__ = ["Scene", "SCHEMA_VERSION", "load_scene", "parse_scene", "save_scene", "build",
            "System", "run", "RunResult", "Progress", "open_result", "ResultFile",
-           "energies", "angular_momentum", "linear_momentum", "BrushStudioError",
+           "prescribe_motion", "energies", "angular_momentum", "linear_momentum", "BrushStudioError",
            "SceneError", "InstabilityError"]

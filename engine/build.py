@@ -73,6 +73,7 @@ class System:
     warnings: list[str] = field(default_factory=list)
     body_geometry: list = field(default_factory=list)
     body_frame_offset: list = field(default_factory=list)  # quaternion shape->body per body
+    prescribed_motions: list = field(default_factory=list)  # changes by prescribe_motion
 
     @property
     def time(self) -> float:

@@ -311,6 +311,8 @@ def run(system: System, until: Optional[float] = None,
              "brush_names": [b.name for b in system.brushes],
              "body_names": list(system.body_names), "stages": list(system.stages),
              "record_every_steps": rec_every}
+    if system.prescribed_motions:
+        attrs["prescribed_motions"] = list(system.prescribed_motions)
     import json as _json
     attrs = {k: (_json.dumps(v) if isinstance(v, (list, dict)) else v) for k, v in attrs.items()}
     stage_time0 = system.stage_time.copy()
