@@ -153,6 +153,37 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_ce
     return best, bs, bu, bv, bw, bd
 
 
+@njit(cache=True)
+def feature_normal(tri, u, v, w, pnormal):
+    """The angle-weighted pseudo-normal (Baerentzen & Aanaes 2005) of the feature of triangle
+    ``tri`` that holds the closest point with barycentric weights (u, v, w): the face, an edge
+    or a vertex. A point is inside a closed mesh exactly when (point - closest point) has a
+    negative component along it; the face normal alone misjudges points near an edge that lie
+    behind one of the edge's two faces but in front of the other (outside the body).
+    ``pnormal[t]`` rows: 0 face, 1-3 edges ab, bc, ca, 4-6 vertices a, b, c."""
+    eps = 1e-9
+    zu = u <= eps
+    zv = v <= eps
+    zw = w <= eps
+    nz = int(zu) + int(zv) + int(zw)
+    if nz == 0:
+        f = 0
+    elif nz == 1:
+        if zw:
+            f = 1
+        elif zu:
+            f = 2
+        else:
+            f = 3
+    elif u >= v and u >= w:
+        f = 4
+    elif v >= w:
+        f = 5
+    else:
+        f = 6
+    return pnormal[tri, f, 0], pnormal[tri, f, 1], pnormal[tri, f, 2]
+
+
 BSLOT = 3          # contacts a (segment, body) candidate holds: two nodes + one interior
 BODY_CROSS_END = 0.25
 
@@ -161,7 +192,7 @@ BODY_CROSS_END = 0.25
 def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                         seg_material, cs, cb, n_cand, ft, friction, local,
                         bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
-                        verts, tris, tnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                        verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                         grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
                         active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
     """Bristle-body contacts of the first ``n_cand`` candidates, up to ``BSLOT`` each:
@@ -176,23 +207,25 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                                     cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, grid_origin, grid_cell, grid_dims, grid_base,
-                                    grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                                    tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                                    grid_base, grid_start, grid_tris, E, mu_table, kt_table,
+                                    zeta_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
     else:
         for c in range(n_cand):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                                     cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, grid_origin, grid_cell, grid_dims, grid_base,
-                                    grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
+                                    tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                                    grid_base, grid_start, grid_tris, E, mu_table, kt_table,
+                                    zeta_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
 
 
 @njit(cache=True)
 def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                             cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
-                            sphere_r, watertight, body_material, verts, tris, tnormal,
+                            sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
                             par_s, energy, diss, overlap_ratio, dt):
@@ -287,9 +320,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             gy = psy - pty
             gz = psz - ptz
             d = math.sqrt(gx * gx + gy * gy + gz * gz)
-            fnx = tnormal[tri, 0]
-            fny = tnormal[tri, 1]
-            fnz = tnormal[tri, 2]
+            fnx, fny, fnz = feature_normal(tri, u, vv, ww, pnormal)
             side = gx * fnx + gy * fny + gz * fnz
             if watertight[k] and side < 0.0:
                 # the axis point lies inside a closed body: push it out along the face normal
@@ -400,7 +431,7 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
 
 @njit(cache=True)
 def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
-                       collide, verts, tris, tnormal, grid_origin, grid_cell, grid_dims,
+                       collide, verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                        grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, ft, friction,
                        scratch, bf, btq, stats, dt):
     """Sphere-sphere and sphere-mesh contacts between bodies (mesh-mesh pairs are not
@@ -461,10 +492,11 @@ def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, bo
                 gx = scratch[0] - (u * p0[0] + vv * p1[0] + ww * p2[0])
                 gy = scratch[1] - (u * p0[1] + vv * p1[1] + ww * p2[1])
                 gz = scratch[2] - (u * p0[2] + vv * p1[2] + ww * p2[2])
-                side = gx * tnormal[tri, 0] + gy * tnormal[tri, 1] + gz * tnormal[tri, 2]
+                fnx, fny, fnz = feature_normal(tri, u, vv, ww, pnormal)
+                side = gx * fnx + gy * fny + gz * fnz
                 if watertight[b] and side < 0.0:
                     ov = ra + d
-                    nlx, nly, nlz = tnormal[tri, 0], tnormal[tri, 1], tnormal[tri, 2]
+                    nlx, nly, nlz = fnx, fny, fnz
                 else:
                     ov = ra - d
                     if ov <= 0.0:

@@ -233,7 +233,7 @@ def build(scene: Scene) -> System:
     collide = np.zeros(K, np.bool_)
     seg_rows = []
     seg_start = [0]
-    verts_all, tris_all, normals_all = [], [], []
+    verts_all, tris_all, normals_all, pnormals_all = [], [], [], []
     g_origin = np.zeros((K, 3))
     g_cell = np.ones(K)
     g_dims = np.ones((K, 3), np.int64)
@@ -268,6 +268,7 @@ def build(scene: Scene) -> System:
         nrm[good] /= ln[good, None]
         nrm[~good] = 0.0
         normals_all.append(nrm)
+        pnormals_all.append(meshes.pseudo_normals(vp, tris))
         origin, cell, dims, start, gtris = meshes.triangle_grid(vp, tris)
         g_origin[k] = origin
         g_cell[k] = cell
@@ -334,12 +335,14 @@ def build(scene: Scene) -> System:
         verts = np.concatenate(verts_all)
         tris = np.concatenate(tris_all)
         normals = np.concatenate(normals_all)
+        pnormals = np.concatenate(pnormals_all)
         g_start = np.concatenate(g_start_all + [np.array([sum(len(x) for x in g_tris_all)])])
         g_tris = np.concatenate(g_tris_all) if g_tris_all else np.zeros(0, np.int64)
     else:
         verts = np.zeros((1, 3))
         tris = np.zeros((1, 3), np.int64)
         normals = np.zeros((1, 3))
+        pnormals = np.zeros((1, 7, 3))
         g_start = np.zeros(1, np.int64)
         g_tris = np.zeros(0, np.int64)
 
@@ -506,6 +509,7 @@ def build(scene: Scene) -> System:
         bound_r=bound_r, watertight=watertight, material=bmat, collide=collide,
         pos_build=pos.copy(), q_build=q.copy(), pos0=pos.copy(), verts=np.ascontiguousarray(verts, float),
         tris=np.ascontiguousarray(tris, np.int64), tnormal=np.ascontiguousarray(normals),
+        pnormal=np.ascontiguousarray(pnormals),
         grid_origin=g_origin, grid_cell=g_cell, grid_dims=g_dims, grid_base=g_base,
         grid_start=np.ascontiguousarray(g_start, np.int64),
         grid_tris=np.ascontiguousarray(g_tris, np.int64), ft_bb=np.zeros((K, K, 3)),
@@ -627,6 +631,23 @@ def build(scene: Scene) -> System:
                             f"{dt_stable:.3g} s (set by {limited_by}); the run may "
                             f"become unstable")
         limited_by = "given in the scene (run.dt)"
+    # tunnelling: a body's surface must not move more than a fraction of the smallest
+    # bristle radius per step (the step loop's check); the automatic dt keeps half of that
+    if N and (bbody_needed or bodybody_needed):
+        step_max = MAX_BODY_STEP_RATIO * r_min
+        speed, fastest = _max_body_speeds(bodies, collide)
+        if speed > 0:
+            dt_speed = 0.5 * step_max / speed
+            if scene.run.dt is None and dt_speed < dt:
+                dt = dt_speed
+                limited_by = (f"speed of body {body_names[fastest]!r} (up to {speed:.3g} m/s; "
+                              f"half of {MAX_BODY_STEP_RATIO:g} x the smallest bristle radius "
+                              f"per step, against tunnelling)")
+            elif scene.run.dt is not None and scene.run.dt > 2 * dt_speed:
+                warnings.append(f"run.dt = {scene.run.dt:.3g} s lets body "
+                                f"{body_names[fastest]!r} ({speed:.3g} m/s) move more than "
+                                f"{MAX_BODY_STEP_RATIO:g} x the smallest bristle radius per "
+                                f"step: the run will stop on the tunnelling check")
     dt = min(dt, scene.run.record_interval, scene.run.duration)
 
     skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)
@@ -686,6 +707,38 @@ def build(scene: Scene) -> System:
     if bb_needed or bbody_needed:
         initial_lists(system)
     return system
+
+
+def _max_body_speeds(bodies: Bodies, collide) -> tuple[float, int]:
+    """The largest surface speed |v| + |omega| r_bound any colliding body reaches: along its
+    whole profile for a kinematic body (the Hermite velocity sampled densely), its initial
+    state for free and hinge bodies. Returns (speed, body index)."""
+    best, who = 0.0, -1
+    tau = np.linspace(0.0, 1.0, 33)
+    for k in range(len(bodies.mass)):
+        if not collide[k]:
+            continue
+        if bodies.motion[k] == KINEMATIC:
+            sp = 0.0
+            for c in range(int(bodies.seg_start[k]), int(bodies.seg_start[k + 1])):
+                h = bodies.t1[c] - bodies.t0[c]
+                if h <= 0:
+                    continue
+                d00 = (6 * tau ** 2 - 6 * tau) / h
+                d10 = 3 * tau ** 2 - 4 * tau + 1
+                d11 = 3 * tau ** 2 - 2 * tau
+                vel = (np.outer(d00, bodies.p0[c]) + np.outer(d10, bodies.v0[c])
+                       - np.outer(d00, bodies.p1[c]) + np.outer(d11, bodies.v1[c]))
+                sp = max(sp, float(np.linalg.norm(vel, axis=1).max())
+                         + float(np.linalg.norm(bodies.wseg[c])) * bodies.bound_r[k])
+        elif bodies.motion[k] == FIXED:
+            continue
+        else:
+            sp = float(np.linalg.norm(bodies.v[k])
+                       + np.linalg.norm(bodies.w[k]) * bodies.bound_r[k])
+        if sp > best:
+            best, who = sp, k
+    return best, who
 
 
 def _pair_list(cap: int, friction: bool) -> PairList:

@@ -240,6 +240,34 @@ def _instability(system: System, code: int) -> InstabilityError:
                                 f"radius: the run is blowing up or the motion is too fast for "
                                 f"the timestep; {lower_dt}.",
                                 detail=f"{e[1]:.3g} m > {e[2]:.3g} m")
+    at_start = system.steps <= system.flags.check_every
+    start_note = ("The overlap is there from the first steps: the scene starts with these "
+                  "elements overlapping (bristles that cross because of tip randomness, or "
+                  "roots resting on a body: lift the brush base by the root radius). ")
+    soft_note = ("If a smaller dt stops at the same time, the linear contact (k_n = 2 E1 r1 "
+                 "E2 r2 / (E1 r1 + E2 r2), seed eq. 3.6) cannot hold this load within half a "
+                 "radius whatever the step: ")
+    if code == FAIL_OVERLAP_BB:
+        if at_start:
+            return InstabilityError("bristle-bristle contact overlap",
+                                    f"{system.segment_label(int(e[0]))} and "
+                                    f"{system.segment_label(int(e[2]))}", t,
+                                    start_note + "Reduce brushes[].tip_variance or increase "
+                                    "the pitch.", detail=f"overlap ratio {e[1]:.3g}")
+        return InstabilityError("bristle-bristle contact overlap",
+                                f"{system.segment_label(int(e[0]))} and "
+                                f"{system.segment_label(int(e[2]))}", t,
+                                f"The capsules overlap by {e[1]:.2f} of the smaller radius "
+                                f"(limit {system.limits[0]:g}): the contact is too soft for the "
+                                f"load or the step too large; {lower_dt}. {soft_note}load the "
+                                f"brush more gently or use stiffer or thicker bristles.",
+                                detail=f"overlap ratio {e[1]:.3g}")
+    if code == FAIL_OVERLAP_BODY and at_start:
+        return InstabilityError("bristle-body contact overlap",
+                                f"{system.segment_label(int(e[0]))} against body "
+                                f"{system.body_names[int(e[2])]!r}", t,
+                                start_note + "Move the body or the brush base apart.",
+                                detail=f"overlap ratio {e[1]:.3g}")
     if code == FAIL_OVERLAP_BB:
         return InstabilityError("bristle-bristle contact overlap",
                                 f"{system.segment_label(int(e[0]))} and "
@@ -255,7 +283,8 @@ def _instability(system: System, code: int) -> InstabilityError:
                                 f"The capsule penetrates the body by {e[1]:.2f} of its radius "
                                 f"(limit {system.limits[0]:g}): the body pushes harder or "
                                 f"faster than the contact can resist at this step; "
-                                f"{lower_dt}, or slow the body down.",
+                                f"{lower_dt}. {soft_note}slow the body down, or use stiffer "
+                                f"or thicker bristles.",
                                 detail=f"overlap ratio {e[1]:.3g}")
     if code == FAIL_OVERLAP_BODYBODY:
         return InstabilityError("body-body contact overlap", "a sphere body", t,

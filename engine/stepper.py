@@ -420,9 +420,9 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                 bn.material, bl.s, bl.b, n_cand, bl.ft, fl.friction_body,
                                 bl.local, bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion,
                                 bd.sphere_r, bd.watertight, bd.material, bd.verts, bd.tris,
-                                bd.tnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
-                                bd.grid_base, bd.grid_start, bd.grid_tris, tb.E, tb.mu, tb.kt, tb.zeta,
-                                bl.active, bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio,
+                                bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
+                                bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
+                                tb.mu, tb.kt, tb.zeta, bl.active, bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio,
                                 dt)
             scatter_bristle_body(nd.x, nd.f, nd.t, bn.i, bn.j, bl.s, bl.b, n_cand, bl.active,
                                  bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio, bd.pos,
@@ -443,9 +443,9 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         if fl.body_body:
             body_body_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.sphere_r,
                                bd.watertight, bd.material, bd.collide, bd.verts, bd.tris,
-                               bd.tnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
-                               bd.grid_base, bd.grid_start, bd.grid_tris, tb.E, tb.mu, tb.kt, tb.zeta,
-                               bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
+                               bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
+                               bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
+                               tb.mu, tb.kt, tb.zeta, bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
                                stats, dt)
             acc[ACC_N_BODYBODY] = stats[0]
             acc[ACC_E_BODYBODY] = stats[1]

@@ -11,6 +11,8 @@ with up to ``BODY_CONTACTS`` bristle segments, and sphere bodies their body-body
 Gershgorin's bound is an upper bound of the true highest frequency, so the rule is
 conservative; the safety factor (default 0.5) leaves room for the contacts the estimate does
 not foresee. The element that gives the largest bound is reported as ``dt_limited_by``.
+``build`` then also caps dt so that no colliding body's surface moves more than half the step
+loop's tunnelling limit (a quarter of the smallest bristle radius) per step.
 """
 from __future__ import annotations
 

@@ -83,14 +83,29 @@ def test_too_large_dt_stops_with_a_clear_error_and_keeps_frames(tmp_path):
         assert np.all(np.isfinite(res.series("nodes/positions")))
 
 
-def test_a_body_too_fast_for_the_timestep_is_refused(tmp_path):
-    fast = scene(bodies=[{"name": "bullet", "material": "pla",
+def _bullet(**run):
+    return scene(bodies=[{"name": "bullet", "material": "pla",
                           "shape": {"type": "sphere", "radius": 0.002},
                           "mass_properties": {"density": 1240}, "motion": {"type": "free"},
                           "pose": {"position": [0.0, 0.0, 0.05]},
-                          "velocity": [0.0, 0.0, -5000.0]}])
+                          "velocity": [0.0, 0.0, -5000.0]}], **run)
+
+
+def test_the_automatic_dt_keeps_a_fast_body_from_tunnelling():
+    s = engine.build(_bullet())
+    assert "speed of body 'bullet'" in s.dt_limited_by
+    r_min = float(s.nodes.rad.min())
+    # the step loop stops a body moving over 0.25 r_min per step; automatic dt keeps half
+    assert 5000.0 * s.dt <= 0.5 * 0.25 * r_min * (1 + 1e-12)
+
+
+def test_a_body_too_fast_for_a_given_dt_is_refused(tmp_path):
+    dt = engine.build(_bullet()).dt_stable
+    fast = _bullet(run={"duration": 0.01, "record_interval": 1e-3, "dt": 0.5 * dt})
+    s = engine.build(fast)
+    assert any("tunnelling" in w for w in s.warnings)
     with pytest.raises(engine.InstabilityError) as err:
-        engine.run(engine.build(fast), output=tmp_path / "f.h5")
+        engine.run(s, output=tmp_path / "f.h5")
     assert err.value.quantity == "body displacement per step"
     assert "bullet" in err.value.where
 
