@@ -1,0 +1,136 @@
+"""``brush-studio serve --headless``: the HTTP job service (``studio.server``) under uvicorn.
+
+    brush-studio serve --headless [--host 127.0.0.1] [--port 8000] [--workers N]
+                       [--data DIR] [--token TOKEN] [--cors ORIGIN ...]
+
+Binds 127.0.0.1 unless told otherwise; binding another address without a token prints a
+warning. The token may also come from the environment (``BRUSH_STUDIO_TOKEN``) so that it
+does not show in the process list. Jobs, results and uploaded meshes live under ``--data``
+(default ``$BRUSH_STUDIO_DATA`` or ``./brush-studio-data``); a restarted server lists them.
+"""
+from __future__ import annotations
+
+import ipaddress
+import os
+import signal
+import sys
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8000
+DEFAULT_DATA = "brush-studio-data"
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def register(subparsers) -> None:
+    s = subparsers.add_parser(
+        "serve", help="serve the engine as an HTTP job service (--headless)",
+        description="Serve Brush Studio's HTTP API (docs/api.md, 'HTTP API'; OpenAPI at "
+                    "/docs): submit scenes as jobs, follow their progress, download results. "
+                    "Jobs run in a pool of worker processes; their state and files persist "
+                    "under --data. The 3D studio with the same API is `brush-studio studio`.")
+    s.add_argument("--headless", action="store_true",
+                   help="serve the HTTP API only, without the 3D studio (required for now: "
+                        "the studio is `brush-studio studio`)")
+    s.add_argument("--host", default=DEFAULT_HOST,
+                   help=f"address to bind (default {DEFAULT_HOST}: this machine only)")
+    s.add_argument("--port", type=int, default=DEFAULT_PORT,
+                   help=f"port (default {DEFAULT_PORT})")
+    s.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="worker processes running jobs at once (default: one per core)")
+    s.add_argument("--data", default=None, metavar="DIR",
+                   help=f"folder for the job database, results and meshes (default "
+                        f"$BRUSH_STUDIO_DATA or ./{DEFAULT_DATA})")
+    s.add_argument("--token", default=None,
+                   help="require 'Authorization: Bearer TOKEN' on the API (default "
+                        "$BRUSH_STUDIO_TOKEN; none: no authentication)")
+    s.add_argument("--cors", nargs="*", default=[], metavar="ORIGIN",
+                   help="browser origins allowed to call the API (default: none, CORS off)")
+    s.add_argument("--max-body-mb", type=float, default=8.0,
+                   help="largest request body (a scene), MiB (default 8)")
+    s.add_argument("--max-upload-mb", type=float, default=64.0,
+                   help="largest mesh upload, MiB (default 64)")
+    s.add_argument("--max-triangles", type=int, default=200_000,
+                   help="most triangles in an uploaded mesh (default 200000)")
+    s.add_argument("--log-level", default="info",
+                   choices=["critical", "error", "warning", "info", "debug"])
+    s.set_defaults(func=_cmd_serve)
+
+
+def _cmd_serve(args) -> int:
+    from .cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+
+    err = lambda m: print(m, file=sys.stderr)  # noqa: E731
+    if not args.headless:
+        err("brush-studio serve: the 3D studio is served by `brush-studio studio`; "
+            "add --headless to serve the HTTP API alone")
+        return EXIT_BAD_INPUT
+    if not 0 < args.port < 65536:
+        err(f"--port = {args.port}: must be 1..65535")
+        return EXIT_BAD_INPUT
+    if args.workers is not None and args.workers < 1:
+        err(f"--workers = {args.workers}: must be >= 1")
+        return EXIT_BAD_INPUT
+    for name in ("max_body_mb", "max_upload_mb"):
+        if not getattr(args, name) > 0:
+            err(f"--{name.replace('_', '-')} must be > 0")
+            return EXIT_BAD_INPUT
+    if args.max_triangles < 1:
+        err("--max-triangles must be >= 1")
+        return EXIT_BAD_INPUT
+    token = args.token or os.environ.get("BRUSH_STUDIO_TOKEN") or None
+    if not is_loopback(args.host) and token is None:
+        err(f"WARNING: binding {args.host} without --token: anyone who can reach this "
+            f"port can run jobs and read results. Pass --token (or set BRUSH_STUDIO_TOKEN).")
+    data = args.data or os.environ.get("BRUSH_STUDIO_DATA") or DEFAULT_DATA
+
+    import uvicorn
+
+    from .jobs import JobManager
+    from .server import create_app
+
+    try:
+        jobs = JobManager(data, workers=args.workers, max_triangles=args.max_triangles)
+    except (RuntimeError, OSError, ValueError) as exc:
+        err(f"error: {exc}")
+        return EXIT_FAILED
+    try:
+        app = create_app(jobs, token=token, cors_origins=args.cors,
+                         max_body_bytes=int(args.max_body_mb * 1024 * 1024),
+                         max_upload_bytes=int(args.max_upload_mb * 1024 * 1024))
+        print(f"Brush Studio API on http://{args.host}:{args.port}/api (OpenAPI: "
+              f"http://{args.host}:{args.port}/docs); data in {jobs.data_dir}; "
+              f"{jobs.n_workers} worker(s) x {jobs.threads_per_worker} thread(s)"
+              f"{'; bearer token required' if token else ''}", flush=True)
+        config = uvicorn.Config(app, host=args.host, port=args.port,
+                                log_level=args.log_level, timeout_graceful_shutdown=5)
+        server = uvicorn.Server(config)
+        # uvicorn shuts down gracefully on SIGINT/SIGTERM and then re-raises the signal to
+        # the handler that was there before it: ours only notes it, so that the job pool
+        # below is closed too (running jobs cancelled, their files closed, workers ended).
+        received: list[int] = []
+        previous = {sig: signal.signal(sig, lambda s, f: received.append(s))
+                    for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            server.run()
+        except SystemExit as exc:  # uvicorn exits when it cannot bind
+            if exc.code not in (None, 0):
+                err(f"error: could not serve on {args.host}:{args.port} (in use, or not an "
+                    f"address of this machine)")
+                return EXIT_FAILED
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        if not server.started:
+            err(f"error: could not serve on {args.host}:{args.port}")
+            return EXIT_FAILED
+    finally:
+        jobs.close()
+    return EXIT_OK
