@@ -118,8 +118,13 @@ class ResultFile:
         self._time = None
 
     def refresh(self) -> None:
-        """Re-open the file to see frames (and attributes) written since it was opened."""
+        """Re-open the file to see frames (and attributes) written since it was opened.
+
+        The old handle is closed first: HDF5 hands a second open of a file that is still open
+        in this process the same underlying file, with its stale view. For the same reason,
+        close other handles to a file being written before opening it again."""
         self._require_open()
+        self.close()
         self._load()
 
     def close(self) -> None:

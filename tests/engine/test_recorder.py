@@ -454,3 +454,41 @@ def test_reader_names_unknown_channels_and_statics(tmp_path):
             r.series("nodes/velocity")
         with pytest.raises(BrushStudioError, match="no static 'nodes/positions'"):
             r.static("nodes/positions")
+
+
+STEPPED_WRITER = """
+    import sys, time
+    from pathlib import Path
+    sys.path.insert(0, sys.argv[2])
+    from tests.engine.test_recorder import new_recorder, frame_values
+    rec = new_recorder(sys.argv[1], flush_every=1)
+    for i in range(3):
+        rec.append(frame_values(i))
+    Path(sys.argv[1] + ".first").touch()
+    while not Path(sys.argv[1] + ".go").exists():
+        time.sleep(0.01)
+    for i in range(3, 7):
+        rec.append(frame_values(i))
+    rec.close("completed")
+"""
+
+
+def test_refresh_sees_frames_another_process_wrote_since(tmp_path):
+    path = tmp_path / "stepped.h5"
+    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(STEPPED_WRITER), str(path),
+                             str(REPO)], env=dict(os.environ, PYTHONPATH=str(REPO)))
+    try:
+        deadline = time.time() + 30
+        while not Path(str(path) + ".first").exists():
+            assert time.time() < deadline and proc.poll() is None
+            time.sleep(0.01)
+        res = open_result(path)
+        assert (res.n_frames, res.status) == (3, "running")
+        Path(str(path) + ".go").touch()
+        assert proc.wait(timeout=30) == 0
+        res.refresh()  # the same object, no new open_result
+        assert (res.n_frames, res.status) == (7, "completed")
+        assert_frames(res, 7)
+        res.close()
+    finally:
+        proc.kill()
