@@ -1,0 +1,205 @@
+"""Fixtures of the browser tests: the studio as a subprocess on free ports of 127.0.0.1,
+and a headless Debian chromium driven by Playwright (no browser is ever downloaded).
+
+``studio``: a running ``brush-studio studio`` (1 worker, its own data folder), stopped with
+SIGINT (then killed) at the end of the module. ``page``: a fresh browser page on the studio,
+connected. Screenshots go to tests/e2e/artifacts/ (git-ignored).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+CHROMIUM = os.environ.get("BRUSH_STUDIO_CHROMIUM", "/usr/bin/chromium")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class StudioProcess:
+    def __init__(self, proc: subprocess.Popen, port: int, api_port: int, log: Path):
+        self.proc, self.port, self.api_port, self.log = proc, port, api_port, log
+        self.url = f"http://127.0.0.1:{port}/"
+        self.api = f"http://127.0.0.1:{api_port}"
+
+    def get(self, path: str) -> dict:
+        with urllib.request.urlopen(self.api + path, timeout=10) as r:
+            return json.loads(r.read())
+
+    def state(self) -> dict:
+        return self.get("/studio/state")
+
+    def wait_state(self, predicate, timeout: float = 20.0, what: str = "state"):
+        """Poll /studio/state until ``predicate(state)`` is true; return that state."""
+        deadline = time.monotonic() + timeout
+        st = None
+        while time.monotonic() < deadline:
+            st = self.state()
+            if predicate(st):
+                return st
+            time.sleep(0.1)
+        raise AssertionError(f"timed out waiting for {what}; last state: "
+                             f"{ {k: v for k, v in (st or {}).items() if k != 'scene'} }")
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"no chromium at {CHROMIUM}")
+    pytest.importorskip("playwright")
+    tmp = tmp_path_factory.mktemp("studio")
+    port, api_port = _free_port(), _free_port()
+    log = tmp / "studio.log"
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    with open(log, "w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "studio.cli", "studio", "--host", "127.0.0.1",
+             "--port", str(port), "--api-port", str(api_port), "--data", str(tmp / "data"),
+             "--workers", "1"], cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
+    s = StudioProcess(proc, port, api_port, log)
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            s.state()
+            break
+        except OSError:
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                raise RuntimeError(f"the studio did not start:\n{log.read_text()}")
+            time.sleep(0.2)
+    yield s
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(
+            executable_path=CHROMIUM, headless=True,
+            args=["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                  "--ignore-gpu-blocklist"])
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def page(studio, browser):
+    """A page on the studio, connected (the design panels are shown); one per test module
+    (loading the page costs seconds with software WebGL), so tests start by opening a
+    preset."""
+    context = browser.new_context(viewport={"width": 1100, "height": 800},
+                                  accept_downloads=True)
+    pg = context.new_page()
+    pg.goto(studio.url)
+    pg.get_by_label("rows", exact=True).wait_for(timeout=30_000)
+    yield pg
+    context.close()
+
+
+@pytest.fixture
+def shot(request):
+    """``shot(page, name)``: save a screenshot as tests/e2e/artifacts/<test>-<name>.png."""
+    ARTIFACTS.mkdir(exist_ok=True)
+
+    def take(pg, name: str) -> Path:
+        path = ARTIFACTS / f"{request.node.name}-{name}.png"
+        pg.wait_for_timeout(700)  # let the 3D view render the last update
+        pg.screenshot(path=str(path))
+        return path
+
+    return take
+
+
+@pytest.fixture
+def artifacts_dir():
+    ARTIFACTS.mkdir(exist_ok=True)
+    return ARTIFACTS
+
+
+def clean(path: Path) -> None:
+    shutil.rmtree(path, ignore_errors=True)
+
+
+def open_preset(studio: StudioProcess, name: str, page=None) -> None:
+    """Open the studio on a preset through the landing route (it redirects to the page);
+    with ``page``, wait until the page shows the preset's rows (as a user would before
+    typing: an edit racing the page's update of the same field could be overwritten)."""
+    with urllib.request.urlopen(f"{studio.api}/studio?preset={name}", timeout=20) as r:
+        assert r.status == 200
+        assert r.url.rstrip("/") == studio.url.rstrip("/")
+    if page is not None:
+        rows = str(studio.state()["scene"]["brushes"][0]["rows"])
+        deadline = time.monotonic() + 30
+        while page.get_by_label("rows", exact=True).input_value() != rows:
+            assert time.monotonic() < deadline, f"the page never showed {rows} rows"
+            time.sleep(0.2)
+
+
+def wait_text(page, text: str, timeout: float = 30.0) -> None:
+    """Wait until the page's visible text contains ``text`` (polling innerText: cheaper
+    than Playwright's visibility checks, which wait for animation frames that software
+    WebGL delivers slowly on a busy machine)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if text in page.evaluate("() => document.body.innerText"):
+            return
+        time.sleep(0.2)
+    raise AssertionError(f"{text!r} not shown on the page within {timeout} s")
+
+
+def click(page, name: str, role: str = "button") -> None:
+    """Click a button (or tab) by its accessible name with a DOM click: viser's panel
+    handles pointer events itself, and synthetic mouse clicks at the element's coordinates do
+    not always reach the button."""
+    element = page.get_by_role(role, name=name, exact=True)
+    if role == "tab":  # viser's dock tabs start a drag on pointer-down; keys activate them
+        element.evaluate("e => e.focus()")
+        page.keyboard.press("Enter")
+    else:
+        element.evaluate("b => b.click()")
+
+
+def upload(page, path, accept: str = "application/json") -> None:
+    """Give a file to the upload button whose input accepts ``accept``."""
+    page.locator(f'input[type=file][accept="{accept}"]').set_input_files(str(path))
+
+
+def set_field(page, studio: StudioProcess, label: str, text: str, accepted,
+              timeout: float = 20.0) -> dict:
+    """Type ``text`` into the input labelled ``label`` and leave it (Tab), then wait until
+    ``accepted(state)``. Typed once more if the server has not seen it after half the
+    timeout: on a machine so loaded that software WebGL draws about one frame a second, an
+    input typed while the page is still applying a server update can be lost."""
+    field = page.get_by_label(label, exact=True)
+    for attempt in range(2):
+        field.fill(text, force=True)
+        field.press("Tab")
+        try:
+            return studio.wait_state(accepted, timeout=timeout / 2, what=f"{label} = {text}")
+        except AssertionError:
+            if attempt == 1:
+                raise
+    raise AssertionError("unreachable")
