@@ -357,6 +357,7 @@ def run(system: System, until: Optional[float] = None,
     last_progress = 0.0
     done = 0
     chunk_cap = 256
+    below_since = None  # the stop condition's quantity has been below its value since
     recorder = Recorder(output, sc.to_json(), channels, static, attrs)
     try:
         def record():
@@ -418,9 +419,14 @@ def run(system: System, until: Optional[float] = None,
                     else:
                         k = system.body_names.index(stop.body)
                         val = float(np.linalg.norm(system.bodies.w[k]))
-                    if val < stop.value:
-                        status = "stopped"
-                        break
+                    if val >= stop.value:
+                        below_since = None
+                    else:
+                        if below_since is None:
+                            below_since = system.time
+                        if system.time - below_since >= stop.hold * (1 - 1e-9):
+                            status = "stopped"
+                            break
             now = _time.perf_counter()
             if on_progress is not None and (now - last_progress >= progress_interval
                                             or done == total_steps):

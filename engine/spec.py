@@ -335,14 +335,16 @@ ALL_CHANNELS: tuple[str, ...] = ("nodes", "bodies", "root_force", "energy", "con
 
 
 class StopCondition(_Model):
-    """Stop before ``duration`` when a quantity stays below ``value`` (checked at every record
-    after ``min_time``): ``kinetic_energy`` (J, whole scene) or ``body_angular_speed``
-    (rad/s, needs ``body``)."""
+    """Stop before ``duration`` when a quantity stays below ``value`` for ``hold`` seconds
+    (checked at every record after ``min_time``): ``kinetic_energy`` (J, whole scene) or
+    ``body_angular_speed`` (rad/s, needs ``body``). A hold keeps a body whose angular speed
+    passes through zero inside a contact from stopping the run too early."""
 
     quantity: Literal["kinetic_energy", "body_angular_speed"]
     value: PositiveFloat
     body: Optional[str] = None
     min_time: NonNegativeFloat = 0.0
+    hold: NonNegativeFloat = 0.0
 
 
 class RunSettings(_Model):
