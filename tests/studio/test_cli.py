@@ -133,7 +133,8 @@ def test_info_on_missing_file_exits_2(tmp_path, capsys):
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-def test_ctrl_c_cancels_cleanly(tiny_scene, write_scene, tmp_path, capsys):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_and_sigterm_cancel_cleanly(sig, tiny_scene, write_scene, tmp_path, capsys):
     # 10 s simulated would take minutes; the cancel must end it within a chunk
     scene = write_scene(tiny_scene(duration=10.0, record_interval=0.001))
     out = tmp_path / "cancel.h5"
@@ -143,7 +144,7 @@ def test_ctrl_c_cancels_cleanly(tiny_scene, write_scene, tmp_path, capsys):
         while not out.exists() and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(0.3)
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), sig)
 
     threading.Thread(target=interrupt_when_running, daemon=True).start()
     t0 = time.monotonic()
@@ -154,8 +155,9 @@ def test_ctrl_c_cancels_cleanly(tiny_scene, write_scene, tmp_path, capsys):
     with engine.open_result(out) as res:
         assert res.status == "cancelled"
         assert 0 < res.time[-1] < 10.0
-    # the CLI put the default handler back
+    # the CLI put the default handlers back
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
 
 def test_console_script_version():
