@@ -25,6 +25,8 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
+import sys
 import threading
 import time
 from pathlib import Path
@@ -1052,15 +1054,12 @@ def _safe_name(name: str) -> str:
 def make_api_app(jobs, studio: Studio, viser_port: int, token: Optional[str] = None):
     """The HTTP API app (``studio.server.create_app``, when available) plus the studio's own
     routes ``/studio`` (open on a preset) and ``/studio/state``."""
-    from fastapi import FastAPI, HTTPException
+    from fastapi import HTTPException
     from fastapi.responses import RedirectResponse
 
-    try:
-        from .server import create_app
-    except ImportError:
-        create_app = None
-    app = create_app(jobs, token=token) if (create_app is not None and jobs is not None) \
-        else FastAPI(title="Brush Studio (studio routes)")
+    from .server import create_app
+
+    app = create_app(jobs, token=token)
 
     def open_studio(request_host: str, preset: Optional[str]):
         if preset:
@@ -1111,25 +1110,33 @@ def _serve_api(app, host: str, port: int):
 def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] = None,
                data_dir: Path = Path(DEFAULT_DATA_DIR), workers: Optional[int] = None,
                api_port: Optional[int] = None, ready_file: Optional[Path] = None,
-               stop: Optional[threading.Event] = None) -> int:
-    """Start the studio and block until Ctrl-C (or ``stop`` is set)."""
+               stop: Optional[threading.Event] = None, token: Optional[str] = None) -> int:
+    """Start the studio and block until Ctrl-C (or ``stop`` is set). ``token`` guards the
+    HTTP API (bearer token); the viser page itself has no authentication, so a studio bound
+    to a non-loopback address is open to whoever reaches its port."""
     import engine
     import viser
 
-    from .cli import EXIT_BAD_INPUT, EXIT_OK, _print_scene_error
+    from .cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, _print_scene_error
 
     try:
         scene = load_preset_or_file(preset or "demo")
     except engine.SceneError as exc:
         _print_scene_error(exc, f"cannot open preset {preset!r}")
         return EXIT_BAD_INPUT
-    jobs = None
-    try:
-        from .jobs import JobManager
+    from .jobs import JobManager
+    from .serve_cli import is_loopback
 
+    if not is_loopback(host):
+        print(f"WARNING: binding {host}: the studio page has no authentication, anyone who "
+              f"can reach port {port} can design and run jobs"
+              + ("" if token else "; the HTTP API has no --token either"), file=sys.stderr)
+    try:
         jobs = JobManager(Path(data_dir), workers=workers)
     except Exception as exc:
-        print(f"studio: no job pool ({type(exc).__name__}: {exc}); designing only")
+        print(f"studio: cannot start the job pool in {data_dir}: {type(exc).__name__}: {exc}",
+              file=sys.stderr)
+        return EXIT_FAILED
     server = viser.ViserServer(host=host, port=port, verbose=False)
     studio = Studio(server, jobs, scene, data_dir=Path(data_dir))
     api = None
@@ -1137,7 +1144,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         api_port = port + 1
     if api_port > 0:
         try:
-            app = make_api_app(jobs, studio, viser_port=port)
+            app = make_api_app(jobs, studio, viser_port=port, token=token)
             api, _ = _serve_api(app, host, api_port)
         except Exception as exc:
             print(f"studio: HTTP API not served ({type(exc).__name__}: {exc})")
@@ -1165,7 +1172,8 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
 
 def _cmd_studio(args) -> int:
     return run_studio(host=args.host, port=args.port, preset=args.preset,
-                      data_dir=Path(args.data), workers=args.workers, api_port=args.api_port)
+                      data_dir=Path(args.data), workers=args.workers, api_port=args.api_port,
+                      token=args.token or os.environ.get("BRUSH_STUDIO_TOKEN") or None)
 
 
 def register(subparsers) -> None:
@@ -1185,4 +1193,7 @@ def register(subparsers) -> None:
                    help="worker processes (default: one per core)")
     p.add_argument("--api-port", type=int, default=None,
                    help="HTTP API port (default: port + 1; 0: do not serve it)")
+    p.add_argument("--token", default=None,
+                   help="bearer token the HTTP API requires (default: $BRUSH_STUDIO_TOKEN; "
+                        "none: open)")
     p.set_defaults(func=_cmd_studio)

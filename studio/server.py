@@ -25,7 +25,6 @@ given (``/api/health`` and the OpenAPI pages stay open), request-body and upload
 import json
 import math
 import secrets
-from pathlib import Path
 from typing import Iterable, Optional
 
 from .jobs import FINAL_STATUSES, STATUSES, JobManager, MeshError, jsonable
