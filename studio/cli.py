@@ -33,6 +33,11 @@ DEMO_DIR = "brush-studio-demo"
 # Modules that add their own subcommands: each has ``register(subparsers)`` and imports its
 # heavy dependencies (dask, fastapi, viser) only inside the command it runs.
 COMMAND_MODULES: tuple[str, ...] = (
+    "studio.app",
+    "studio.convergence",
+    "studio.studies.cli",
+    "studio.serve_cli",
+    "studio.studies.dissipation",
 )
 
 
@@ -179,27 +184,33 @@ class _ProgressBar:
 
 
 class _CtrlC:
-    """While active, the first Ctrl-C sets ``event`` (the run then stops within one chunk
-    and closes its file as cancelled); a second one interrupts at once."""
+    """While active, the first Ctrl-C (or SIGTERM, as sent by job schedulers and `kill`) sets
+    ``event``: the run then stops within one chunk and closes its file as cancelled. A second
+    one interrupts at once."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self, event: threading.Event):
         self.event = event
-        self._old = None
+        self._old: dict = {}
 
     def _handler(self, signum, frame):
         if self.event.is_set():
             raise KeyboardInterrupt
         self.event.set()
-        _err("\ncancelling (Ctrl-C again to abort at once)...")
+        what = "Ctrl-C" if signum == signal.SIGINT else "the signal"
+        _err(f"\ncancelling ({what} again to abort at once)...")
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self._old = signal.signal(signal.SIGINT, self._handler)
+            for sig in self.SIGNALS:
+                self._old[sig] = signal.signal(sig, self._handler)
         return self
 
     def __exit__(self, *exc):
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}
         return False
 
 
@@ -411,6 +422,10 @@ def _cmd_demo(args) -> int:
     print(f"To look at the results: open {png}, or read {h5} with engine.open_result:")
     print(f"  python -c \"import engine; r = engine.open_result('{h5}'); "
           f"print(r.status, r.n_frames, r.channels())\"")
+    print()
+    print("To design brushes, run scenes and scrub results in the browser, start the studio")
+    print("(it opens on this demo scene; Ctrl-C stops it):")
+    print("  brush-studio studio        then open http://127.0.0.1:8080")
     return code
 
 

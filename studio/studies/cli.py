@@ -1,0 +1,35 @@
+"""``brush-studio study <name> ...``: the studies as command-line subcommands.
+
+Each module in :data:`STUDY_MODULES` exposes ``add_parser(study_subparsers)``, which adds its
+subcommand with ``set_defaults(func=...)`` (a function of the parsed arguments returning an
+exit code: 0 ok, 1 some runs failed, 2 bad input, 130 cancelled). Common options
+(``-o/--output``, ``--scheduler``, ``--workers``, ``--no-progress``) come from
+:func:`studio.studies.runner.add_common_options`. Study modules import dask, matplotlib and
+the engine inside their commands only, so that ``brush-studio --help`` stays fast.
+"""
+from __future__ import annotations
+
+import importlib
+
+STUDY_MODULES: tuple[str, ...] = (
+    "studio.studies.wedge",
+    "studio.studies.refinement",
+    "studio.studies.sensitivity",
+    "studio.studies.rod",
+    "studio.studies.spin",
+)
+
+
+def register(subparsers) -> None:
+    """Add ``study`` and its sub-subcommands to the top-level ``brush-studio`` parser."""
+    p = subparsers.add_parser(
+        "study", help="run a study (many simulations) into an output folder",
+        description="Studies run many simulations on Dask distributed (a local cluster using "
+                    "every core by default, or --scheduler tcp://HOST:PORT) and write CSV, "
+                    "HDF5 and PNG plots into an output folder. Restarting a study in the same "
+                    "folder skips the runs already complete. See docs/studies.md.",
+        epilog="Exit codes: 0 ok, 1 some runs failed (listed with their parameters), "
+               "2 bad input, 130 cancelled.")
+    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
+    for name in STUDY_MODULES:
+        importlib.import_module(name).add_parser(sub)

@@ -1,0 +1,496 @@
+"""Many independent simulations on Dask distributed: one task per run, one HDF5 per run.
+
+    from studio.studies.runner import RunSpec, run_many
+
+    specs = [RunSpec(run_id=f"E{i}", scene=scene_dict_i, params={"youngs_modulus": E_i})
+             for i, (scene_dict_i, E_i) in enumerate(cases)]
+    outcomes = run_many(specs, "study-out")          # local cluster, one worker per core
+    outcomes = run_many(specs, "study-out", scheduler="tcp://10.0.0.5:8786")  # existing one
+
+Every run writes ``out_dir/runs/<run_id>.h5`` (the task decides what goes into it) and, last
+and atomically, ``out_dir/runs/<run_id>.json`` (its :class:`RunOutcome`, plus a hash of the
+run's scene, parameters and task). A study that is stopped and started again skips every run
+whose ``.json`` says ``completed`` or ``stopped`` for the same hash; a run that failed, was
+cancelled or never finished runs again. A failing run is reported with its parameters
+(:func:`failures_text`); the other runs go on.
+
+A task is ``"module:function"``, called on the worker as
+``fn(scene: engine.Scene, h5_path: pathlib.Path, params: dict) -> dict`` (a small JSON-able
+summary; it may hold ``"status"``: ``"completed"`` (the default) or ``"stopped"``). An
+exception in the task (an instability, a scene the engine refuses) makes the run ``failed``,
+with the error's type and message; nothing else is affected.
+
+Workers: the local cluster starts one single-threaded worker *process* per core
+(``NUMBA_NUM_THREADS=1`` in each), so that the runs, not numba's thread pools, share the
+cores. Each task also caps numba's threads for its own thread at
+``BRUSH_STUDIO_NUMBA_THREADS`` (default 1), so that workers started by hand with ``dask worker``
+do not oversubscribe either. With ``--scheduler`` the workers must import this project
+(``pip install -e .``) and see ``out_dir`` at the same path (a shared file system).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import importlib
+import json
+import math
+import os
+import sys
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+DEFAULT_TASK = "studio.studies.runner:plain_run"
+DONE_STATUSES = ("completed", "stopped")
+STATUSES = ("completed", "stopped", "failed", "cancelled")
+
+
+# ----------------------------------------------------------------------------- data
+@dataclass
+class RunSpec:
+    """One simulation of a study.
+
+    ``run_id``: filesystem-safe (letters, digits, ``._-``) and stable across restarts (it
+    names the run's files); ``scene``: the scene as a JSON dict; ``params``: the study
+    parameters of this run (JSON-able; reported with failures and stored in the outcome);
+    ``task``: ``"module:function"`` run on the worker (see the module docstring)."""
+
+    run_id: str
+    scene: dict
+    params: dict = field(default_factory=dict)
+    task: str = DEFAULT_TASK
+
+    def digest(self) -> str:
+        """Hash of what the run computes (scene, params, task): a restart skips a finished
+        run only when this is unchanged."""
+        text = json.dumps({"scene": self.scene, "params": self.params, "task": self.task},
+                          sort_keys=True, default=str, allow_nan=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass
+class RunOutcome:
+    """What became of one run. ``status``: completed | stopped | failed | cancelled;
+    ``summary``: what the task returned; ``error``: ``"Type: message"`` for a failed run;
+    ``h5``: the run's HDF5 file; ``wall_s``: wall time of the task on its worker;
+    ``skipped``: ``True`` when it was already complete from an earlier attempt."""
+
+    run_id: str
+    params: dict
+    status: str
+    summary: dict
+    error: Optional[str]
+    h5: Path
+    wall_s: float
+    skipped: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return self.status in DONE_STATUSES
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["h5"] = str(self.h5)
+        return d
+
+
+# ----------------------------------------------------------------------------- JSON helpers
+def jsonable(value: Any) -> Any:
+    """Strict-JSON version of ``value``: non-finite floats as "nan"/"inf"/"-inf" (as in
+    result files), numpy scalars and arrays as Python numbers and lists, paths as text."""
+    if isinstance(value, bool) or value is None or isinstance(value, (str, int)):
+        return value
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return value
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        return jsonable(value.tolist())
+    return str(value)
+
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    """Write ``data`` as JSON to ``path`` via a temporary file and ``os.replace``: the path
+    holds either the old or the new complete file, never a partial one."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(jsonable(data), indent=1, allow_nan=False) + "\n")
+    os.replace(tmp, path)
+
+
+def run_paths(out_dir: Path, run_id: str) -> tuple[Path, Path]:
+    """``(h5, json)`` paths of a run in a study's output folder."""
+    runs = Path(out_dir) / "runs"
+    return runs / f"{run_id}.h5", runs / f"{run_id}.json"
+
+
+def _check_run_id(run_id: str) -> None:
+    ok = run_id and all(c.isalnum() or c in "._-" for c in run_id) and run_id[0] not in ".-"
+    if not ok:
+        raise ValueError(f"run_id {run_id!r}: use letters, digits, '.', '_' and '-' only "
+                         f"(it names the run's files), not starting with '.' or '-'")
+
+
+def load_outcome(out_dir: Path, run_id: str) -> Optional[dict]:
+    """The stored outcome of a run (the ``.json`` as a dict), or ``None`` if there is none
+    or it cannot be read."""
+    _, js = run_paths(out_dir, run_id)
+    try:
+        return json.loads(js.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _outcome_from_dict(d: dict, skipped: bool) -> RunOutcome:
+    return RunOutcome(run_id=d["run_id"], params=d.get("params", {}), status=d["status"],
+                      summary=d.get("summary") or {}, error=d.get("error"),
+                      h5=Path(d["h5"]), wall_s=float(d.get("wall_s", 0.0)), skipped=skipped)
+
+
+# ----------------------------------------------------------------------------- worker side
+def resolve_task(task: str) -> Callable:
+    """The function named by ``"module:function"``."""
+    module, sep, name = task.partition(":")
+    if not sep or not module or not name:
+        raise ValueError(f"task {task!r}: expected 'module:function'")
+    fn = importlib.import_module(module)
+    for part in name.split("."):
+        fn = getattr(fn, part)
+    if not callable(fn):
+        raise TypeError(f"task {task!r} is not callable")
+    return fn
+
+
+def _limit_numba_threads() -> None:
+    try:
+        import numba
+
+        n = int(os.environ.get("BRUSH_STUDIO_NUMBA_THREADS", "1"))
+        numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    except Exception:  # no numba threading layer: nothing to limit
+        pass
+
+
+def execute_spec(spec: dict, out_dir: str) -> dict:
+    """Run one spec (as a dict) on this process: the function each Dask task calls.
+
+    Writes ``runs/<run_id>.h5`` (through the task) and then, atomically,
+    ``runs/<run_id>.json``; returns the outcome as a dict. Never raises for a failing run:
+    the failure is the outcome."""
+    import engine
+
+    global _PROGRESS
+    _limit_numba_threads()
+    run_id = spec["run_id"]
+    h5, js = run_paths(Path(out_dir), run_id)
+    h5.parent.mkdir(parents=True, exist_ok=True)
+    _PROGRESS = _ProgressFile(progress_path(Path(out_dir), run_id))
+    status, summary, error = "failed", {}, None
+    t0 = time.perf_counter()
+    try:
+        fn = resolve_task(spec["task"])
+        scene = engine.parse_scene(spec["scene"])
+        result = fn(scene, h5, dict(spec["params"]))
+        summary = dict(result or {})
+        status = summary.get("status", "completed")
+        if status not in STATUSES:
+            raise ValueError(f"task returned status {status!r}; expected one of {STATUSES}")
+        if status == "failed" and summary.get("error"):
+            error = str(summary["error"])
+    except engine.SceneError as exc:
+        error = "SceneError: " + "; ".join(str(p) for p in exc.problems)
+    except KeyboardInterrupt:
+        status, error = "cancelled", "KeyboardInterrupt"
+    except Exception as exc:
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = f" (at {tb[-1].filename}:{tb[-1].lineno})" if tb else ""
+        error = f"{type(exc).__name__}: {exc}{where}"
+        status = "failed"
+    wall = time.perf_counter() - t0
+    if error is not None:
+        error = " ".join(error.split())  # one line: it is printed beside the parameters
+    _PROGRESS.remove()
+    _PROGRESS = None
+    outcome = {"run_id": run_id, "params": spec["params"], "status": status,
+               "summary": summary, "error": error, "h5": str(h5), "wall_s": wall,
+               "skipped": False}
+    write_json_atomic(js, dict(outcome, digest=spec["digest"], task=spec["task"],
+                               finished=time.time()))
+    return jsonable(outcome)
+
+
+def progress_path(out_dir: Path, run_id: str) -> Path:
+    """Where a running task reports how far it is (read by :func:`run_many`'s bar)."""
+    return Path(out_dir) / "runs" / f".{run_id}.progress"
+
+
+class _ProgressFile:
+    def __init__(self, path: Path):
+        self.path = path
+        self.last = 0.0
+
+    def write(self, fraction: float) -> None:
+        now = time.monotonic()
+        if now - self.last < 0.5:
+            return
+        self.last = now
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        try:
+            tmp.write_text(f"{min(max(float(fraction), 0.0), 1.0):.6f}")
+            os.replace(tmp, self.path)
+        except OSError:  # progress is a nicety: never fail a run for it
+            pass
+
+    def remove(self) -> None:
+        try:
+            self.path.unlink()
+        except OSError:
+            pass
+
+
+_PROGRESS: Optional[_ProgressFile] = None
+
+
+def report_progress(fraction: float) -> None:
+    """Called by a task (on its worker) to say how far its run is, 0..1; shown in the
+    study's progress bar. Does nothing outside a study run; at most two writes a second."""
+    if _PROGRESS is not None:
+        _PROGRESS.write(fraction)
+
+
+def _read_progress(out_dir: Path, run_id: str) -> float:
+    try:
+        return min(max(float(progress_path(out_dir, run_id).read_text()), 0.0), 1.0)
+    except (OSError, ValueError):
+        return 0.0
+
+
+def plain_run(scene, h5_path: Path, params: dict) -> dict:
+    """The default task: build the scene and run it to ``run.duration`` into ``h5_path``.
+    Returns the run's status, simulated time, wall time, dt, steps and sizes, and the last
+    recorded vertical root force of each brush (N)."""
+    import engine
+
+    system = engine.build(scene)
+    result = engine.run(system, output=h5_path)  # InstabilityError -> the run failed
+    s = result.summary
+    out = {"status": result.status if result.status in STATUSES else "failed",
+           "time": s.get("time"), "wall_s": s.get("wall_s"), "dt": s.get("dt"),
+           "steps": s.get("steps"), "n_nodes": s.get("n_nodes"), "frames": result.frames}
+    if result.status == "cancelled":
+        out["status"] = "cancelled"
+    try:
+        with engine.open_result(result.path) as res:
+            for b in scene.brushes:
+                f = res.series(f"brushes/{b.name}/root_force")
+                if len(f):
+                    out[f"root_force_z.{b.name}"] = float(f[-1, 2])
+    except (engine.BrushStudioError, KeyError):
+        pass
+    return out
+
+
+# ----------------------------------------------------------------------------- client side
+def default_workers() -> int:
+    """Cores this process may use (one worker process per core)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+def _connect(scheduler: Optional[str], n_workers: Optional[int]):
+    """(client, cluster or None). A local cluster of single-threaded worker processes with
+    NUMBA_NUM_THREADS=1, or a client of an existing scheduler."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout="30s"), None
+    n = n_workers or default_workers()
+    env = {"NUMBA_NUM_THREADS": "1", "BRUSH_STUDIO_NUMBA_THREADS": "1",
+           "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           host="127.0.0.1", dashboard_address=None,
+                           silence_logs=logging.ERROR, env=env,
+                           worker_dashboard_address=None,
+                           # no dashboard; its bare HTTP server on any free port, not 8787
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+    return Client(cluster), cluster
+
+
+def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = None,
+             n_workers: Optional[int] = None, progress: bool = True,
+             desc: str = "runs") -> list[RunOutcome]:
+    """Run ``specs`` on Dask distributed, one task per run; outcomes in the order of
+    ``specs``.
+
+    ``scheduler``: ``None`` starts a local cluster with ``n_workers`` single-threaded worker
+    processes (default: one per core) and stops it at the end; ``"tcp://host:port"`` uses an
+    existing scheduler and its workers. Runs already complete in ``out_dir`` (same hash)
+    are skipped (``skipped=True``). ``progress`` shows a tqdm bar over runs.
+
+    Ctrl-C (KeyboardInterrupt) cancels the queued runs and re-raises; runs finished before
+    it keep their files, so the next call picks up from there."""
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    ids = [s.run_id for s in specs]
+    for rid in ids:
+        _check_run_id(rid)
+    if len(set(ids)) != len(ids):
+        dup = sorted({r for r in ids if ids.count(r) > 1})
+        raise ValueError(f"run_id must be unique within a study; repeated: {dup}")
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+
+    outcomes: list[Optional[RunOutcome]] = [None] * len(specs)
+    todo: list[tuple[int, dict]] = []
+    for i, spec in enumerate(specs):
+        digest = spec.digest()
+        old = load_outcome(out_dir, spec.run_id)
+        if old and old.get("status") in DONE_STATUSES and old.get("digest") == digest \
+                and Path(old.get("h5", "")).exists():
+            outcomes[i] = _outcome_from_dict(old, skipped=True)
+            continue
+        try:  # a progress note left by a run killed earlier
+            progress_path(out_dir, spec.run_id).unlink()
+        except OSError:
+            pass
+        todo.append((i, {"run_id": spec.run_id, "scene": spec.scene,
+                         "params": jsonable(spec.params), "task": spec.task,
+                         "digest": digest}))
+
+    bar = tqdm(total=len(specs), initial=len(specs) - len(todo), desc=desc, unit="run",
+               disable=not progress, dynamic_ncols=True, file=sys.stderr)
+    n_failed = 0
+    finished = 0
+    try:
+        if todo:
+            client, cluster = _connect(scheduler, n_workers)
+            try:
+                futures = {}
+                for i, d in todo:
+                    fut = client.submit(execute_spec, d, str(out_dir.resolve()),
+                                        key=f"brush-run-{d['run_id']}-{d['digest']}",
+                                        pure=False, retries=0)
+                    futures[fut] = (i, d)
+                try:
+                    for fut in _completed(futures, bar, out_dir, len(specs) - len(todo)):
+                        i, d = futures[fut]
+                        try:
+                            res = fut.result()
+                            outcome = _outcome_from_dict(res, skipped=False)
+                        except Exception as exc:  # the worker died (KilledWorker), ...
+                            h5, js = run_paths(out_dir, d["run_id"])
+                            outcome = RunOutcome(d["run_id"], d["params"], "failed", {},
+                                                 f"{type(exc).__name__}: {exc}", h5, 0.0)
+                            write_json_atomic(js, dict(outcome.to_dict(),
+                                                       digest=d["digest"], task=d["task"]))
+                        outcomes[i] = outcome
+                        if not outcome.ok:
+                            n_failed += 1
+                            bar.write(f"run {outcome.run_id} {outcome.status}: "
+                                      f"{outcome.error}  params {json.dumps(outcome.params)}")
+                        finished += 1
+                        bar.set_postfix_str(f"{n_failed} failed", refresh=False)
+                        bar.n = len(specs) - len(todo) + finished
+                        bar.refresh()
+                except BaseException:
+                    client.cancel(list(futures))
+                    raise
+            finally:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    finally:
+        bar.close()
+    return list(outcomes)  # type: ignore[arg-type]  # every run has its outcome here
+
+
+def _completed(futures: dict, bar, out_dir: Path, n_before: int):
+    """Yield futures as they finish; meanwhile move the bar by the runs' own progress."""
+    from distributed import wait
+
+    pending = set(futures)
+    n_done = 0
+    while pending:
+        try:
+            done, pending = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
+        except TimeoutError:  # (distributed's TimeoutError is the builtin one)
+            done = set()
+        for fut in done:
+            n_done += 1
+            yield fut
+        partial = sum(_read_progress(out_dir, futures[f][1]["run_id"]) for f in pending
+                      if f.status == "pending")
+        n = round(n_before + n_done + partial, 2)
+        if n != bar.n:
+            bar.n = n
+            bar.refresh()
+
+
+def failures_text(outcomes: Sequence[RunOutcome]) -> str:
+    """One line per run that did not complete: id, status, error and parameters."""
+    lines = []
+    for o in outcomes:
+        if not o.ok:
+            lines.append(f"{o.run_id}: {o.status}: {o.error}; params {json.dumps(jsonable(o.params))}")
+    return "\n".join(lines)
+
+
+def write_outcomes(path: Path, outcomes: Sequence[RunOutcome]) -> None:
+    """All outcomes as one JSON list (written atomically)."""
+    write_json_atomic(path, [o.to_dict() for o in outcomes])
+
+
+# ----------------------------------------------------------------------------- CLI helpers
+def add_common_options(parser: argparse.ArgumentParser, default_output: Optional[str] = None,
+                       ) -> None:
+    """Options every study command has: ``-o/--output DIR``, ``--scheduler``, ``--workers``,
+    ``--no-progress``."""
+    g = parser.add_argument_group("output and execution")
+    if default_output is None:
+        g.add_argument("-o", "--output", metavar="DIR", required=True,
+                       help="output folder (created; a restart in the same folder skips "
+                            "runs already complete)")
+    else:
+        g.add_argument("-o", "--output", metavar="DIR", default=default_output,
+                       help=f"output folder (default ./{default_output}; a restart in the "
+                            f"same folder skips runs already complete)")
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
+                   help="address of an existing Dask scheduler (its workers must see DIR); "
+                        "default: a local cluster, one single-threaded worker per core")
+    g.add_argument("--workers", type=int, metavar="N", default=None,
+                   help=f"worker processes of the local cluster (default: one per core, "
+                        f"{default_workers()} here)")
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def check_common_options(args) -> Optional[str]:
+    """A message for a bad common option, or None."""
+    if args.workers is not None and args.workers < 1:
+        return f"--workers = {args.workers}: must be >= 1"
+    if args.scheduler is not None and args.workers is not None:
+        return "--workers applies to the local cluster only; leave it out with --scheduler"
+    if args.scheduler is not None and "://" not in args.scheduler:
+        return f"--scheduler = {args.scheduler!r}: expected an address like tcp://HOST:PORT"
+    return None
+
+
+def run_many_from_args(specs: Sequence[RunSpec], out_dir, args, desc: str = "runs"
+                       ) -> list[RunOutcome]:
+    """``run_many`` with the common options of ``args``."""
+    return run_many(specs, out_dir, scheduler=args.scheduler, n_workers=args.workers,
+                    progress=not args.no_progress, desc=desc)

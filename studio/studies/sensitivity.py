@@ -1,0 +1,407 @@
+"""Sensitivity (one parameter at a time) and Monte Carlo (all at once) wedge studies (seed 4.2).
+
+    brush-studio study sensitivity -o DIR [--preset wedge_30 | --angles 30,45,60,75]
+    brush-studio study montecarlo --samples 100 -o DIR [--angles ...] [--seed 1]
+
+The uncertain parameters and their ranges (seed 4.2, DESIGN §4):
+
+| parameter | nominal | range |
+|---|---|---|
+| bristle Young's modulus E | 2.7 MPa | 2.7 ± 1.1 MPa |
+| bristle density | scene's (1700) | 1100 – 2300 kg/m^3 |
+| Poisson's ratio nu | scene's (0.48) | 0.47 – 0.49 |
+| silicone–silicone friction angle | 44° | 44 ± 2° |
+| silicone–wedge friction angle | 24° | 24 ± 2° |
+
+``sensitivity`` runs the nominal scene and each parameter at the two ends of its range
+(the others nominal): 1 + 2 x 5 runs per scene. ``montecarlo`` draws every parameter
+uniformly from its range at once (``--seed``, reproducible: a restart draws the same
+samples) and reports the mean ± std of the force per depth and phase (like seed fig. 4.18).
+Both run the hold-until-steady wedge protocol (:mod:`studio.studies.wedge`); the defaults
+are reduced so that they fit a small machine: sensitivity to 10 mm, montecarlo to 5 mm with
+5 nodes per bristle (``--depth-mm``, ``--nodes`` change that; the seed went to 33 mm).
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
+                     run_many_from_args, write_json_atomic, write_outcomes)
+from .wedge import (EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK, TASK,
+                    StudyInputError, add_protocol_options, apply_resolution,
+                    protocol_from_args, resolve_scenes, validate_scenes, wedge_angle_deg)
+
+# name: (label, unit shown, low, high, nominal or None = the scene's value); SI inside
+PARAMETERS = {
+    "youngs_modulus": ("bristle Young's modulus", "MPa", 1.6e6, 3.8e6, 2.7e6),
+    "density": ("bristle density", "kg/m^3", 1100.0, 2300.0, None),
+    "poisson_ratio": ("bristle Poisson's ratio", "", 0.47, 0.49, None),
+    "friction_bristle_bristle": ("silicone-silicone friction angle", "deg",
+                                 math.radians(42), math.radians(46), math.radians(44)),
+    "friction_bristle_wedge": ("silicone-wedge friction angle", "deg",
+                               math.radians(22), math.radians(26), math.radians(24)),
+}
+_SHOW = {"MPa": 1e-6, "deg": 180 / math.pi, "kg/m^3": 1.0, "": 1.0}
+
+
+def show(name: str, value: float) -> str:
+    unit = PARAMETERS[name][1]
+    return f"{value * _SHOW[unit]:.4g}{(' ' + unit) if unit else ''}"
+
+
+def _bristle_material(scene: dict, brush: str) -> str:
+    for b in scene["brushes"]:
+        if b["name"] == brush:
+            return b["material"]
+    raise StudyInputError(f"no brush {brush!r}")
+
+
+def _pair(scene: dict, a: str, b: str) -> dict:
+    for cp in scene.setdefault("contact_pairs", []):
+        if sorted(cp["materials"]) == sorted([a, b]):
+            return cp
+    cp = {"materials": [a, b]}
+    scene["contact_pairs"].append(cp)
+    return cp
+
+
+def apply_parameters(scene: dict, values: dict, *, brush: str = "brush",
+                     body: str = "wedge") -> dict:
+    """A copy of ``scene`` with the uncertain parameters set (SI: Pa, kg/m^3, -, rad). The
+    bristle material is given its own copy (``<material>``, changed in place: the wedge and
+    other bodies have other materials in the presets)."""
+    scene = copy.deepcopy(scene)
+    mat = _bristle_material(scene, brush)
+    wedge_mat = next((b["material"] for b in scene.get("bodies", []) if b["name"] == body),
+                     None)
+    if wedge_mat is None:
+        raise StudyInputError(f"no body {body!r}")
+    if wedge_mat == mat:
+        raise StudyInputError("the wedge and the bristles share a material: the study cannot "
+                              "vary them apart")
+    m = scene["materials"][mat]
+    for name, v in values.items():
+        if name in ("youngs_modulus", "density", "poisson_ratio"):
+            m[name] = float(v)
+        elif name == "friction_bristle_bristle":
+            _pair(scene, mat, mat)["friction_angle"] = float(v)
+        elif name == "friction_bristle_wedge":
+            _pair(scene, mat, wedge_mat)["friction_angle"] = float(v)
+        else:
+            raise StudyInputError(f"unknown parameter {name!r}")
+    return scene
+
+
+def nominal_values(scene: dict, brush: str = "brush") -> dict:
+    """The nominal value of each parameter: the table's, or the scene's own."""
+    mat = _bristle_material(scene, brush)
+    out = {}
+    for name, (_, _, lo, hi, nom) in PARAMETERS.items():
+        if nom is None:
+            nom = scene["materials"][mat][name]
+        out[name] = nom
+    return out
+
+
+def _common(args, default_depth_mm: float, default_nodes: Optional[int]):
+    """Scenes (with the protocol) for the sensitivity and Monte Carlo commands."""
+    if args.depth_mm is None:
+        args.depth_mm = default_depth_mm
+    if args.nodes is None:
+        args.nodes = default_nodes
+    return resolve_scenes(args.preset, args.angles)
+
+
+def _add_scene_options(p) -> None:
+    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
+                   help="scene file or preset name (repeat for several; default wedge_60)")
+    p.add_argument("--angles", metavar="DEG,...",
+                   help="wedge angles in degrees: the presets wedge_<angle> (or one --preset "
+                        "with its angle changed)")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "sensitivity", help="one uncertain parameter at a time over its range (seed 4.2)",
+        description="The wedge protocol for the nominal scene and for each uncertain "
+                    "parameter (E 2.7 +- 1.1 MPa, density 1100-2300 kg/m^3, nu 0.47-0.49, "
+                    "friction angles 44 +- 2 and 24 +- 2 deg) at both ends of its range. "
+                    "Default depth 10 mm. Writes sensitivity.csv, sensitivity.png, "
+                    "study.json and one HDF5 per run.")
+    _add_scene_options(p)
+    add_protocol_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_sensitivity)
+
+    m = sub.add_parser(
+        "montecarlo", help="all uncertain parameters at once; mean +- std per depth "
+                           "(seed fig. 4.18)",
+        description="Draw every uncertain parameter uniformly from its range, run the wedge "
+                    "protocol for each sample and report mean +- std of the force per depth. "
+                    "Defaults reduced for a small machine: 5 mm depth, 5 nodes per bristle. "
+                    "Writes montecarlo.csv, samples.csv, montecarlo.png, study.json and one "
+                    "HDF5 per sample.")
+    m.add_argument("--samples", type=int, default=100, metavar="N",
+                   help="samples per scene (default 100)")
+    m.add_argument("--seed", type=int, default=1, help="random seed of the samples")
+    _add_scene_options(m)
+    add_protocol_options(m)
+    add_common_options(m)
+    m.set_defaults(func=cmd_montecarlo)
+
+
+def _prepare(args, default_depth_mm, default_nodes):
+    import engine
+
+    msg = check_common_options(args)
+    if msg:
+        raise StudyInputError(msg)
+    try:
+        return _common(args, default_depth_mm, default_nodes)
+    except engine.SceneError as exc:
+        raise StudyInputError("invalid scene: " + "; ".join(str(p) for p in exc.problems)
+                              ) from None
+
+
+def _run(specs, args, desc):
+    bad = validate_scenes([s.scene for s in specs])
+    if bad:
+        raise StudyInputError(bad)
+    return run_many_from_args(specs, Path(args.output), args, desc=desc)
+
+
+# ----------------------------------------------------------------------------- sensitivity
+def cmd_sensitivity(args) -> int:
+    try:
+        scenes = _prepare(args, 10.0, None)
+        specs = []
+        for rid, scene, src in scenes:
+            scene = apply_resolution(scene, args.nodes)
+            nom = nominal_values(scene)
+            cases = [("nominal", None, None)]
+            for name, (_, _, lo, hi, _) in PARAMETERS.items():
+                cases += [(f"{name}_low", name, lo), (f"{name}_high", name, hi)]
+            for case, name, value in cases:
+                values = dict(nom)
+                if name is not None:
+                    values[name] = value
+                sc = apply_parameters(scene, values)
+                specs.append(RunSpec(f"{rid}.{case}", sc, {
+                    "scene": rid, "case": case, "parameter": name, "value": value,
+                    "values": values, "angle_deg": wedge_angle_deg(sc), "source": src,
+                    "protocol": protocol_from_args(sc, args)}, TASK))
+        print(f"sensitivity: {len(scenes)} scene(s) x {len(specs) // len(scenes)} runs, to "
+              f"{args.depth_mm:g} mm")
+        t0 = time.perf_counter()
+        outcomes = _run(specs, args, "sensitivity runs")
+    except StudyInputError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("cancelled: finished runs are kept; run the same command again to go on",
+              file=sys.stderr)
+        return EXIT_CANCELLED
+    wall = time.perf_counter() - t0
+    return write_sensitivity_outputs(Path(args.output), specs, outcomes, wall)
+
+
+def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
+    from .plots import plot_sensitivity
+
+    rows = []
+    by_scene: dict = {}
+    for spec, o in zip(specs, outcomes):
+        if not o.ok:
+            continue
+        s, pr = o.summary, spec.params
+        by_scene.setdefault(pr["scene"], []).append((pr, s))
+        for d, f, ph in zip(s["depth_m"], s["force_N"], s["phase"]):
+            rows.append([pr["scene"], "" if pr["angle_deg"] is None else f"{pr['angle_deg']:.6g}",
+                         pr["case"], pr["parameter"] or "",
+                         "" if pr["value"] is None else f"{pr['value']:.6g}",
+                         f"{d:.6g}", f"{f:.9g}", ph])
+    with open(out / "sensitivity.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["scene", "angle_deg", "case", "parameter", "value_si", "depth_m",
+                    "force_N", "phase"])
+        w.writerows(rows)
+    summary = {}
+    for scene_id, runs in by_scene.items():
+        nominal = next((s for pr, s in runs if pr["case"] == "nominal"), None)
+        panels = []
+        summary[scene_id] = {}
+        for name, (label, unit, lo, hi, _) in PARAMETERS.items():
+            curves = []
+            if nominal is not None:
+                curves.append(("nominal", nominal["depth_m"], nominal["force_N"],
+                               nominal["phase"]))
+            peaks = {}
+            for pr, s in runs:
+                if pr["parameter"] == name:
+                    curves.append((show(name, pr["value"]), s["depth_m"], s["force_N"],
+                                   s["phase"]))
+                    peaks[pr["case"].rsplit("_", 1)[1]] = s["peak_force_N"]
+            panels.append((label, curves))
+            if nominal is not None and peaks:
+                summary[scene_id][name] = {
+                    "peak_nominal_N": nominal["peak_force_N"],
+                    **{f"peak_{k}_N": v for k, v in peaks.items()},
+                    "spread_rel": (max(peaks.values()) - min(peaks.values()))
+                    / nominal["peak_force_N"] if nominal["peak_force_N"] else float("nan")}
+        plot_sensitivity(panels, out / (f"sensitivity_{scene_id}.png" if len(by_scene) > 1
+                                        else "sensitivity.png"),
+                         f"Sensitivity of the wedge force, {scene_id} (one parameter at a time)")
+    write_outcomes(out / "outcomes.json", outcomes)
+    write_json_atomic(out / "study.json", {"study": "sensitivity", "wall_s": wall,
+                                           "peak_force_by_parameter": summary,
+                                           "failed": [o.run_id for o in outcomes if not o.ok]})
+    print()
+    for scene_id, table in summary.items():
+        print(f"{scene_id}: peak force, change across each parameter's range")
+        for name, r in sorted(table.items(), key=lambda kv: -abs(kv[1]["spread_rel"])):
+            print(f"  {PARAMETERS[name][0]:<36} low {r.get('peak_low_N', float('nan')):.4g} N"
+                  f"  high {r.get('peak_high_N', float('nan')):.4g} N"
+                  f"  ({r['spread_rel']:+.1%} of nominal {r['peak_nominal_N']:.4g} N)")
+    print(f"study wall time {wall:.1f} s; outputs in {out}/")
+    fails = failures_text(outcomes)
+    if fails:
+        print("failed runs:\n" + fails, file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------- Monte Carlo
+def draw_samples(n: int, seed: int) -> list[dict]:
+    """``n`` parameter sets, each parameter uniform over its range (reproducible)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    names = list(PARAMETERS)
+    lo = np.array([PARAMETERS[k][2] for k in names])
+    hi = np.array([PARAMETERS[k][3] for k in names])
+    u = rng.random((n, len(names)))
+    return [dict(zip(names, map(float, lo + (hi - lo) * row))) for row in u]
+
+
+def mean_std_table(summaries: list[dict]) -> list[dict]:
+    """Mean and std (ddof 1) of the force per (phase, depth) over the runs that have it."""
+    import numpy as np
+
+    acc: dict = {}
+    for s in summaries:
+        for d, f, ph in zip(s["depth_m"], s["force_N"], s["phase"]):
+            acc.setdefault((ph, round(d, 9)), []).append(f)
+    rows = []
+    for (ph, d), fs in sorted(acc.items(), key=lambda kv: (kv[0][0] != "load",
+                                                           kv[0][1] * (1 if kv[0][0] == "load"
+                                                                       else -1))):
+        a = np.asarray(fs)
+        rows.append({"depth_m": d, "phase": ph, "mean_N": float(a.mean()),
+                     "std_N": float(a.std(ddof=1)) if len(a) > 1 else 0.0, "n": len(a)})
+    return rows
+
+
+def cmd_montecarlo(args) -> int:
+    if args.samples < 2:
+        print(f"--samples = {args.samples}: must be >= 2 (a standard deviation)",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        scenes = _prepare(args, 5.0, 5)
+        samples = draw_samples(args.samples, args.seed)
+        specs = []
+        for rid, scene, src in scenes:
+            scene = apply_resolution(scene, args.nodes)
+            proto = protocol_from_args(scene, args)
+            for i, values in enumerate(samples):
+                sc = apply_parameters(scene, values)
+                specs.append(RunSpec(f"{rid}.mc{i:04d}", sc, {
+                    "scene": rid, "sample": i, "seed": args.seed, "values": values,
+                    "angle_deg": wedge_angle_deg(sc), "source": src, "protocol": proto},
+                    TASK))
+        print(f"Monte Carlo: {len(scenes)} scene(s) x {args.samples} samples (seed "
+              f"{args.seed}), to {args.depth_mm:g} mm, {args.nodes} nodes per bristle")
+        t0 = time.perf_counter()
+        outcomes = _run(specs, args, "Monte Carlo samples")
+    except StudyInputError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("cancelled: finished samples are kept; run the same command again to go on",
+              file=sys.stderr)
+        return EXIT_CANCELLED
+    wall = time.perf_counter() - t0
+    return write_montecarlo_outputs(Path(args.output), specs, outcomes, wall)
+
+
+def write_montecarlo_outputs(out: Path, specs, outcomes, wall) -> int:
+    from .plots import plot_mean_std
+
+    names = list(PARAMETERS)
+    with open(out / "samples.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run_id", "scene", "sample", *[f"{n}_si" for n in names], "status",
+                    "peak_force_N", "wall_s"])
+        for spec, o in zip(specs, outcomes):
+            pr = spec.params
+            w.writerow([spec.run_id, pr["scene"], pr["sample"],
+                        *[f"{pr['values'][n]:.6g}" for n in names], o.status,
+                        f"{o.summary['peak_force_N']:.6g}" if o.ok else "",
+                        f"{o.wall_s:.2f}"])
+    groups, table, stats = [], [], {}
+    by_scene: dict = {}
+    for spec, o in zip(specs, outcomes):
+        if o.ok:
+            by_scene.setdefault(spec.params["scene"], []).append((spec, o))
+    for scene_id, runs in by_scene.items():
+        rows = mean_std_table([o.summary for _, o in runs])
+        angle = runs[0][0].params["angle_deg"]
+        label = f"{angle:g} deg" if angle is not None else scene_id
+        for phase in ("load", "unload"):
+            sel = [r for r in rows if r["phase"] == phase]
+            loads = [r for r in rows if r["phase"] == "load"]
+            if phase == "unload" and sel and loads:  # unloading starts at the deepest point
+                sel = [max(loads, key=lambda r: r["depth_m"])] + sel
+            if sel:
+                groups.append((label, [r["depth_m"] for r in sel], [r["mean_N"] for r in sel],
+                               [r["std_N"] for r in sel], phase))
+        for r in rows:
+            table.append([scene_id, "" if angle is None else f"{angle:.6g}",
+                          f"{r['depth_m']:.6g}", r["phase"],
+                          f"{r['mean_N']:.9g}", f"{r['std_N']:.9g}", r["n"]])
+        walls = [o.wall_s for _, o in runs]
+        cpus = [o.summary.get("cpu_s") or 0.0 for _, o in runs]
+        stats[scene_id] = {"samples_completed": len(runs), "mean_run_wall_s":
+                           sum(walls) / len(walls), "sum_run_wall_s": sum(walls),
+                           "mean_run_cpu_s": sum(cpus) / len(cpus)}
+    with open(out / "montecarlo.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["scene", "angle_deg", "depth_m", "phase", "mean_N", "std_N", "n"])
+        w.writerows(table)
+    if groups:
+        plot_mean_std(groups, out / "montecarlo.png",
+                      "Monte Carlo over the uncertain parameters: mean ± std per depth "
+                      "(cf. seed fig. 4.18)")
+    write_outcomes(out / "outcomes.json", outcomes)
+    write_json_atomic(out / "study.json", {
+        "study": "montecarlo", "wall_s": wall, "samples": len(specs), "per_scene": stats,
+        "parameters": {k: {"low_si": v[2], "high_si": v[3], "distribution": "uniform"}
+                       for k, v in PARAMETERS.items()},
+        "failed": [o.run_id for o in outcomes if not o.ok]})
+    print()
+    for scene_id, st in stats.items():
+        print(f"{scene_id}: {st['samples_completed']} samples, mean run wall time "
+              f"{st['mean_run_wall_s']:.1f} s (CPU {st['mean_run_cpu_s']:.1f} s)")
+    print(f"study wall time {wall:.1f} s; outputs in {out}/ (montecarlo.csv, samples.csv, "
+          f"montecarlo.png, study.json, runs/*.h5)")
+    fails = failures_text(outcomes)
+    if fails:
+        print("failed runs:\n" + fails, file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK

@@ -1,0 +1,628 @@
+"""The wedge study (seed 4.2): force against penetration depth, loading and unloading.
+
+    brush-studio study wedge --preset static_presets/wedge_60.json -o DIR
+    brush-studio study wedge --angles 30,45,60,75 -o DIR
+
+One run per scene (per wedge angle), each a Dask task (:func:`wedge_cycle`). A run replaces
+the wedge's scripted motion by the seed's hold-until-steady protocol (seed 4.2, fig. 4.11):
+
+1. the brush settles under the scene's loads with the wedge at rest, until the vertical root
+   force is steady: that force is the zero of the scale (the bristles' weight);
+2. the wedge moves one step (1 mm) along the profile's direction with the parabolic velocity
+   ``v(t) = k t (t_d - t)``, ``k = a_m / t_d``, ``t_d = sqrt(6 s / a_m)`` (seed eq. 4.3),
+   through ``engine.prescribe_motion`` (times relative to now, from the current pose);
+3. it holds, window after window (``window`` seconds, ``frames_per_window`` frames each),
+   until the standard deviation of the total vertical root force over one window is below
+   ``max(threshold, rel_threshold * |force|)``, or until ``max_hold`` (then the record is
+   flagged ``converged = False`` and counted in ``hold_limit_hits``);
+4. it records the window's mean force minus the zero (``force_N``) at the depth reached;
+5. down to the full depth (``n_steps`` steps), then the same steps back out (phase
+   ``unload``) to depth 0.
+
+Each ``engine.run`` call writes its own HDF5: the run writes these chunks into a scratch
+folder (``runs/.<run_id>.scratch/``), reads what it needs from each and deletes it, and keeps
+one HDF5 per run (``runs/<run_id>.h5``, layout in docs/studies.md): the force-depth table,
+the root force and wedge position and force against time for the whole cycle, and the node
+positions at every recorded equilibrium. A run that fails still writes that file with the
+records so far (attribute ``status = "failed"``) and keeps the chunk that failed.
+
+No mass or density scaling is used: the equilibria are reached with the scene's own
+Cundall local damping (``environment.local_damping``, 0.3 in the wedge presets), which
+only acts on moving nodes and so leaves a static equilibrium's forces unchanged; the study's
+output states the damping and ``a_m`` it used.
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import math
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
+                     jsonable, report_progress, run_many_from_args, write_json_atomic,
+                     write_outcomes)
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
+TASK = "studio.studies.wedge:wedge_cycle"
+PROTOCOL_DEFAULTS = {
+    "window": 0.05,            # s, one hold window
+    "frames_per_window": 10,   # force samples per window
+    "threshold": 2e-5,         # N, absolute std threshold
+    "rel_threshold": 0.005,    # fraction of the current force change
+    "max_hold": 1.0,           # s, longest hold after one step
+}
+DEFAULT_PRESET = "wedge_60"
+
+
+class StudyInputError(ValueError):
+    """A bad study input (a scene without the wedge, a bad option value)."""
+
+
+# ----------------------------------------------------------------------------- scenes
+def load_scene_dict(ref: str) -> tuple[dict, str]:
+    """A scene as a JSON dict from a file path or a preset name, and a label for it."""
+    import engine
+
+    path = Path(ref)
+    if not path.exists():
+        try:
+            from studio.presets import preset_path
+
+            path = preset_path(ref)
+        except (ImportError, KeyError):
+            raise StudyInputError(f"{ref}: no such scene file or preset") from None
+    scene = engine.load_scene(path)  # SceneError names bad fields
+    return json.loads(scene.to_json()), path.stem
+
+
+def default_scene_dict() -> tuple[dict, str]:
+    """The wedge_60 preset, or the embedded demo scene (same brush, 60 deg wedge) if the
+    presets are not there."""
+    try:
+        return load_scene_dict(DEFAULT_PRESET)
+    except StudyInputError:
+        from importlib.resources import files
+
+        return json.loads((files("studio") / "data" / "demo_scene.json").read_text()), "demo"
+
+
+def find_body(scene: dict, body: str) -> dict:
+    for b in scene.get("bodies", []):
+        if b.get("name") == body:
+            return b
+    names = [b.get("name") for b in scene.get("bodies", [])]
+    raise StudyInputError(f"the scene has no body {body!r} (bodies: {names})")
+
+
+def wedge_angle_deg(scene: dict, body: str = "wedge") -> Optional[float]:
+    shape = find_body(scene, body).get("shape", {})
+    return math.degrees(shape["angle"]) if shape.get("type") == "wedge" else None
+
+
+def set_wedge_angle(scene: dict, angle_deg: float, body: str = "wedge") -> dict:
+    """A copy of ``scene`` with the wedge's included angle set (degrees at this edge)."""
+    scene = copy.deepcopy(scene)
+    shape = find_body(scene, body)["shape"]
+    if shape.get("type") != "wedge":
+        raise StudyInputError(f"body {body!r} is a {shape.get('type')}, not a wedge")
+    shape["angle"] = math.radians(angle_deg)
+    return scene
+
+
+def make_protocol(scene: dict, *, body: str = "wedge", brush: Optional[str] = None,
+                  depth: Optional[float] = None, step: Optional[float] = None,
+                  max_acceleration: Optional[float] = None, unload: bool = True,
+                  **overrides) -> dict:
+    """The hold-until-steady protocol for ``scene``: step, a_m, direction and number of steps
+    from the wedge's stepped_parabolic profile (full depth = n_steps * step) unless given;
+    window, thresholds and maximum hold from :data:`PROTOCOL_DEFAULTS` unless given."""
+    b = find_body(scene, body)
+    if b.get("motion", {}).get("type") != "kinematic":
+        raise StudyInputError(f"body {body!r} must be kinematic (it is "
+                              f"{b.get('motion', {}).get('type', 'fixed')})")
+    prof = b["motion"].get("profile", {})
+    sp = prof if prof.get("kind") == "stepped_parabolic" else {}
+    step = float(step if step is not None else sp.get("step", 0.001))
+    a_m = float(max_acceleration if max_acceleration is not None
+                else sp.get("max_acceleration", 0.4))
+    if depth is None:
+        if not sp:
+            raise StudyInputError("give the depth: the wedge's profile is not "
+                                  "stepped_parabolic")
+        depth = sp["n_steps"] * step
+    n_steps = int(round(depth / step))
+    if n_steps < 1 or abs(n_steps * step - depth) > 1e-9:
+        raise StudyInputError(f"depth {depth:g} m is not a whole number (>= 1) of "
+                              f"{step:g} m steps")
+    if not (a_m > 0 and step > 0):
+        raise StudyInputError("step and max_acceleration must be > 0")
+    direction = [float(x) for x in sp.get("direction", [0.0, 0.0, -1.0])]
+    norm = math.sqrt(sum(x * x for x in direction))
+    brushes = [x["name"] for x in scene.get("brushes", [])]
+    if brush is None:
+        if not brushes:
+            raise StudyInputError("the scene has no brush")
+        brush = brushes[0]
+    elif brush not in brushes:
+        raise StudyInputError(f"the scene has no brush {brush!r} (brushes: {brushes})")
+    proto = dict(PROTOCOL_DEFAULTS)
+    proto.update({k: v for k, v in overrides.items() if v is not None})
+    for k in ("window", "threshold", "max_hold"):
+        if not proto[k] > 0:
+            raise StudyInputError(f"{k} = {proto[k]}: must be > 0")
+    if proto["frames_per_window"] < 3:
+        raise StudyInputError("frames_per_window must be >= 3 (a standard deviation)")
+    proto.update(body=body, brush=brush, step=step, max_acceleration=a_m,
+                 n_steps=n_steps, direction=[x / norm for x in direction],
+                 unload=bool(unload))
+    return proto
+
+
+def step_duration(step: float, max_acceleration: float) -> float:
+    """t_d = sqrt(6 s / a_m), seed eq. 4.3."""
+    return math.sqrt(6.0 * step / max_acceleration)
+
+
+# ----------------------------------------------------------------------------- the task
+def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
+    """Dask task: the hold-until-steady loading/unloading cycle of one scene (see the module
+    docstring). ``params["protocol"]`` is :func:`make_protocol`'s dict. Writes ``h5_path``;
+    returns depths, forces, phases, convergence flags and costs."""
+    import numpy as np
+
+    import engine
+
+    p = params["protocol"]
+    body, brush = p["body"], p["brush"]
+    direction = np.asarray(p["direction"], float)
+    step, a_m, n_steps = p["step"], p["max_acceleration"], int(p["n_steps"])
+    window, fpw = float(p["window"]), int(p["frames_per_window"])
+    t_d = step_duration(step, a_m)
+
+    d = json.loads(scene.to_json())
+    d["run"].update(stop=None, duration=1e4, record_interval=window / fpw,
+                    channels=["nodes", "bodies", "root_force"])
+    system = engine.build(engine.parse_scene(d))
+    scratch = h5_path.parent / f".{h5_path.stem}.scratch"
+    shutil.rmtree(scratch, ignore_errors=True)
+    scratch.mkdir(parents=True)
+
+    series = {"time": [], "root_force_z": [], "wedge_depth": [], "wedge_force_z": []}
+    rec = {k: [] for k in ("depth_m", "force_N", "phase", "root_force_z_N", "std_N",
+                           "hold_s", "converged", "time_s", "wedge_force_z_N",
+                           "measured_depth_m")}
+    snapshots: list = []
+    costs = {"steps": 0, "engine_wall_s": 0.0, "chunks": 0}
+    state = {"p0": None, "last_nodes": None, "last_chunk": None}
+    n_stages = 1 + n_steps * (2 if p["unload"] else 1)
+    t_wall0, t_cpu0 = time.perf_counter(), time.process_time()
+    status, error = "completed", None
+
+    def advance(duration: float):
+        path = scratch / f"chunk{costs['chunks']:05d}.h5"
+        state["last_chunk"] = path
+        res = engine.run(system, until=system.time + duration, output=path)
+        costs["chunks"] += 1
+        costs["steps"] += int(res.summary.get("steps", 0))
+        costs["engine_wall_s"] += float(res.summary.get("wall_s", 0.0))
+        with engine.open_result(path) as r:
+            t = r.time
+            fz = r.series(f"brushes/{brush}/root_force")[:, 2]
+            pos = r.series(f"bodies/{body}/position")
+            wf = r.series(f"bodies/{body}/contact_force")[:, 2]
+            state["last_nodes"] = r.frame("nodes/positions", -1)
+        if state["p0"] is None:
+            state["p0"] = pos[0].copy()
+        depth = (pos - state["p0"]) @ direction
+        series["time"].append(t)
+        series["root_force_z"].append(fz)
+        series["wedge_depth"].append(depth)
+        series["wedge_force_z"].append(wf)
+        path.unlink()
+        return fz, depth, wf
+
+    def hold(stage: int, zero: Optional[float]):
+        held = 0.0
+        while True:
+            fz, depth, wf = advance(window)
+            held += window
+            mean, std = float(np.mean(fz)), float(np.std(fz))
+            thr = p["threshold"] if zero is None else \
+                max(p["threshold"], p["rel_threshold"] * abs(mean - zero))
+            converged = std <= thr
+            report_progress(min((stage + held / p["max_hold"]) / n_stages, 1.0))
+            if converged or held >= p["max_hold"] - 1e-9:
+                return dict(mean=mean, std=std, held=held, converged=converged,
+                            depth=float(depth[-1]), wedge_force=float(np.mean(wf)))
+
+    def record(target_depth: float, phase: str, h: dict, zero: float):
+        rec["depth_m"].append(target_depth)
+        rec["force_N"].append(h["mean"] - zero)
+        rec["phase"].append(phase)
+        rec["root_force_z_N"].append(h["mean"])
+        rec["std_N"].append(h["std"])
+        rec["hold_s"].append(h["held"])
+        rec["converged"].append(h["converged"])
+        rec["time_s"].append(system.time)
+        rec["wedge_force_z_N"].append(h["wedge_force"])
+        rec["measured_depth_m"].append(h["depth"])
+        snapshots.append(state["last_nodes"])
+
+    try:
+        # the scene's own motion is replaced: at rest until the first step
+        engine.prescribe_motion(system, body, {"kind": "constant",
+                                               "velocity": [0.0, 0.0, 0.0],
+                                               "duration": 1e-9}, after="hold")
+        h = hold(0, None)
+        zero = h["mean"]
+        record(0.0, "load", h, zero)
+        stage = 1
+        moves = [(k, "load", 1.0) for k in range(1, n_steps + 1)]
+        if p["unload"]:
+            moves += [(k, "unload", -1.0) for k in range(n_steps - 1, -1, -1)]
+        for k, phase, sign in moves:
+            engine.prescribe_motion(system, body, {
+                "kind": "stepped_parabolic", "step": step, "n_steps": 1,
+                "max_acceleration": a_m, "direction": list(sign * direction)}, after="hold")
+            advance(t_d)
+            h = hold(stage, zero)
+            record(k * step, phase, h, zero)
+            stage += 1
+    except engine.InstabilityError as exc:
+        status, error = "failed", exc
+        last = state["last_chunk"]
+        if last is not None and last.exists():  # keep the chunk that failed, for a look
+            os.replace(last, h5_path.with_name(h5_path.stem + ".failed_chunk.h5"))
+    except BaseException as exc:
+        status, error = "failed", exc
+    finally:
+        wall = time.perf_counter() - t_wall0
+        _write_run_h5(h5_path, scene, params, p, rec, series, snapshots, costs, system,
+                      status, str(error) if error else None, wall, t_d)
+        shutil.rmtree(scratch, ignore_errors=True)
+    if error is not None:
+        raise error
+    forces = rec["force_N"]
+    return {"status": "completed", "depth_m": rec["depth_m"], "force_N": forces,
+            "phase": rec["phase"], "converged": rec["converged"],
+            "hold_limit_hits": int(sum(not c for c in rec["converged"])),
+            "zero_force_N": zero, "peak_force_N": float(max(forces)),
+            "wall_s": wall, "cpu_s": time.process_time() - t_cpu0,
+            "engine_wall_s": costs["engine_wall_s"], "steps": costs["steps"],
+            "sim_time_s": system.time, "dt": system.dt, "n_nodes": system.n_nodes,
+            "step_duration_s": t_d,
+            "local_damping": scene.environment.local_damping}
+
+
+def _write_run_h5(path: Path, scene, params, p, rec, series, snapshots, costs, system,
+                  status, error, wall, t_d) -> None:
+    """The run's HDF5 (docs/studies.md), written to a temporary name and renamed."""
+    import h5py
+    import numpy as np
+
+    tmp = path.with_name(f".{path.name}.tmp")
+    with h5py.File(tmp, "w") as f:
+        f.attrs["format"] = "brush-studio-study-run"
+        f.attrs["study"] = "wedge"
+        f.attrs["status"] = status
+        if error:
+            f.attrs["error"] = error
+        f.attrs["scene"] = scene.to_json()
+        f.attrs["params"] = json.dumps(jsonable(params))
+        f.attrs["protocol"] = json.dumps(jsonable(p))
+        f.attrs["wall_s"] = wall
+        f.attrs["engine_wall_s"] = costs["engine_wall_s"]
+        f.attrs["steps"] = costs["steps"]
+        f.attrs["dt"] = system.dt
+        f.attrs["dt_limited_by"] = str(system.dt_limited_by)
+        f.attrs["n_nodes"] = system.n_nodes
+        f.attrs["step_duration_s"] = t_d
+        g = f.create_group("force_depth")
+        for k, v in rec.items():
+            if k == "phase":
+                g.create_dataset(k, data=np.array(v, dtype="S8"))
+            else:
+                g.create_dataset(k, data=np.asarray(v, dtype=bool if k == "converged"
+                                                    else float))
+        s = f.create_group("series")
+        for k, chunks in series.items():
+            s.create_dataset(k, data=np.concatenate(chunks) if chunks else np.zeros(0))
+        if snapshots:
+            f.create_dataset("equilibria/nodes_positions", data=np.stack(snapshots),
+                             compression="gzip")
+    os.replace(tmp, path)
+
+
+def read_run_h5(path) -> dict:
+    """The force-depth table of a wedge run's HDF5 as a dict of arrays (``phase`` as str),
+    plus ``status`` and ``protocol``."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(path, "r") as f:
+        out = {k: np.asarray(v) for k, v in f["force_depth"].items()}
+        out["phase"] = np.array([x.decode() for x in out["phase"]])
+        out["status"] = f.attrs["status"]
+        out["protocol"] = json.loads(f.attrs["protocol"])
+    return out
+
+
+# ----------------------------------------------------------------------------- outputs
+def write_force_depth_csv(path: Path, depths, forces, phases, extra: Optional[dict] = None
+                          ) -> None:
+    """``depth_m,force_N,phase`` (then the ``extra`` columns, each a list)."""
+    extra = extra or {}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["depth_m", "force_N", "phase", *extra])
+        for i, (dd, ff, ph) in enumerate(zip(depths, forces, phases)):
+            w.writerow([f"{dd:.6g}", f"{ff:.9g}", ph, *(extra[k][i] for k in extra)])
+    os.replace(tmp, path)
+
+
+def curve_checks(depths, forces, phases) -> dict:
+    """Seed 4.2.2's observations for one loading/unloading curve: non-linear growth (the
+    secant stiffness F/d at full depth exceeds that at the first step), unloading below
+    loading (mean over the depths of both), peak force."""
+    load = {d: f for d, f, ph in zip(depths, forces, phases) if ph == "load"}
+    unload = {d: f for d, f, ph in zip(depths, forces, phases) if ph == "unload"}
+    ds = sorted(d for d in load if d > 0)
+    out = {"peak_force_N": max(load.values()) if load else float("nan")}
+    if len(ds) >= 2:
+        out["secant_first_N_per_m"] = load[ds[0]] / ds[0]
+        out["secant_full_N_per_m"] = load[ds[-1]] / ds[-1]
+        out["stiffening"] = out["secant_full_N_per_m"] > out["secant_first_N_per_m"]
+    common = [d for d in ds if d in unload and d != ds[-1]]
+    if common:
+        out["mean_unload_minus_load_N"] = sum(unload[d] - load[d] for d in common) / len(common)
+        out["unload_below_load"] = out["mean_unload_minus_load_N"] < 0
+    return out
+
+
+def _parse_angles(text: str) -> list[float]:
+    try:
+        angles = [float(a) for a in text.split(",") if a.strip()]
+    except ValueError:
+        raise StudyInputError(f"--angles {text!r}: expected degrees like 30,45,60,75") from None
+    if not angles or any(not 0 < a < 180 for a in angles):
+        raise StudyInputError(f"--angles {text!r}: each angle in (0, 180) degrees")
+    return angles
+
+
+def _safe_id(text: str) -> str:
+    s = "".join(c if c.isalnum() or c in "._-" else "_" for c in text).strip("._-")
+    return s or "run"
+
+
+def resolve_scenes(presets: list[str], angles: Optional[str], body: str = "wedge"
+                   ) -> list[tuple[str, dict, str]]:
+    """``[(run_id, scene dict, where it came from)]`` for the command's options: each
+    ``--preset``; or for each of ``--angles`` the preset ``wedge_<angle>`` (or, with one
+    ``--preset``, that scene with the angle changed); or the default preset."""
+    out = []
+    if angles:
+        alist = _parse_angles(angles)
+        if len(presets) > 1:
+            raise StudyInputError("--angles takes at most one --preset (the base scene)")
+        for a in alist:
+            if presets:
+                base, label = load_scene_dict(presets[0])
+                out.append((f"{_safe_id(label)}_at_{a:g}deg", set_wedge_angle(base, a, body),
+                            f"{presets[0]} with the wedge angle set to {a:g} deg"))
+            else:
+                try:
+                    scene, label = load_scene_dict(f"wedge_{a:g}")
+                    out.append((_safe_id(label), scene, f"preset wedge_{a:g}"))
+                except StudyInputError:
+                    base, label = default_scene_dict()
+                    out.append((f"{_safe_id(label)}_at_{a:g}deg",
+                                set_wedge_angle(base, a, body),
+                                f"{label} with the wedge angle set to {a:g} deg"))
+    elif presets:
+        for ref in presets:
+            scene, label = load_scene_dict(ref)
+            out.append((_safe_id(label), scene, ref))
+    else:
+        scene, label = default_scene_dict()
+        out.append((_safe_id(label), scene, f"default ({label})"))
+    seen: dict = {}
+    unique = []
+    for rid, scene, src in out:
+        seen[rid] = seen.get(rid, 0) + 1
+        unique.append((rid if seen[rid] == 1 else f"{rid}_{seen[rid]}", scene, src))
+    return unique
+
+
+def apply_resolution(scene: dict, n_nodes: Optional[int]) -> dict:
+    if n_nodes is None:
+        return scene
+    scene = copy.deepcopy(scene)
+    for b in scene.get("brushes", []):
+        b["n_nodes"] = int(n_nodes)
+    return scene
+
+
+def add_protocol_options(p) -> None:
+    """Options of the hold-until-steady protocol (shared by the wedge-based studies)."""
+    g = p.add_argument_group("protocol (defaults: the scene's wedge profile; docs/studies.md)")
+    g.add_argument("--depth-mm", type=float, metavar="MM",
+                   help="full depth in mm (default: n_steps x step of the wedge's profile)")
+    g.add_argument("--nodes", type=int, metavar="N",
+                   help="nodes per bristle (default: the scene's)")
+    g.add_argument("--max-acceleration", type=float, metavar="A",
+                   help="a_m of each step, m/s^2 (default: the profile's)")
+    g.add_argument("--window", type=float, metavar="S",
+                   help=f"hold window, s (default {PROTOCOL_DEFAULTS['window']})")
+    g.add_argument("--threshold", type=float, metavar="N",
+                   help=f"std of the root force that counts as steady, N (default "
+                        f"{PROTOCOL_DEFAULTS['threshold']:g}; or --rel-threshold times the "
+                        f"force, whichever is larger)")
+    g.add_argument("--rel-threshold", type=float, metavar="F",
+                   help=f"(default {PROTOCOL_DEFAULTS['rel_threshold']:g})")
+    g.add_argument("--max-hold", type=float, metavar="S",
+                   help=f"longest hold after a step, s (default {PROTOCOL_DEFAULTS['max_hold']})")
+    g.add_argument("--no-unload", action="store_true", help="loading only")
+
+
+def protocol_from_args(scene: dict, args) -> dict:
+    if args.nodes is not None and not 2 <= args.nodes <= 4096:
+        raise StudyInputError(f"--nodes = {args.nodes}: must be in 2 .. 4096")
+    return make_protocol(scene, depth=None if args.depth_mm is None else args.depth_mm * 1e-3,
+                         max_acceleration=args.max_acceleration, unload=not args.no_unload,
+                         window=args.window, threshold=args.threshold,
+                         rel_threshold=args.rel_threshold, max_hold=args.max_hold)
+
+
+def _err(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+def validate_scenes(scenes: list[dict]) -> Optional[str]:
+    """Parse every scene before anything runs: a message naming the bad fields, or None."""
+    import engine
+
+    for scene in scenes:
+        try:
+            engine.parse_scene(scene)
+        except engine.SceneError as exc:
+            return "invalid scene: " + "; ".join(str(p) for p in exc.problems)
+    return None
+
+
+# ----------------------------------------------------------------------------- command
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "wedge", help="force against depth of a wedge pressed into the brush (seed 4.2)",
+        description="Drive the wedge down in steps with the seed's parabolic velocity, hold "
+                    "after each until the total vertical root force is steady, record it; to "
+                    "full depth and back out. Writes DIR/force_depth.csv (depth_m,force_N,"
+                    "phase), DIR/force_depth.png, DIR/wedge_records.csv, DIR/study.json and "
+                    "one HDF5 per run in DIR/runs/.")
+    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
+                   help="scene file or preset name (repeat for several; default wedge_60)")
+    p.add_argument("--angles", metavar="DEG,...",
+                   help="wedge angles in degrees, e.g. 30,45,60,75: the presets wedge_<angle> "
+                        "(or one --preset with its angle changed)")
+    add_protocol_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_wedge)
+
+
+def cmd_wedge(args) -> int:
+    import engine
+
+    msg = check_common_options(args)
+    if msg:
+        _err(msg)
+        return EXIT_BAD_INPUT
+    try:
+        scenes = resolve_scenes(args.preset, args.angles)
+        specs = []
+        for rid, scene, src in scenes:
+            scene = apply_resolution(scene, args.nodes)
+            proto = protocol_from_args(scene, args)
+            angle = wedge_angle_deg(scene)
+            specs.append(RunSpec(rid, scene, {"angle_deg": angle, "source": src,
+                                              "n_nodes": [b["n_nodes"] for b in
+                                                          scene["brushes"]],
+                                              "protocol": proto}, TASK))
+    except engine.SceneError as exc:
+        _err("invalid scene: " + "; ".join(str(p) for p in exc.problems))
+        return EXIT_BAD_INPUT
+    except StudyInputError as exc:
+        _err(str(exc))
+        return EXIT_BAD_INPUT
+    bad = validate_scenes([s.scene for s in specs])
+    if bad:
+        _err(bad)
+        return EXIT_BAD_INPUT
+    out = Path(args.output)
+    for s in specs:
+        pr = s.params["protocol"]
+        print(f"{s.run_id}: {s.params['source']}; wedge {s.params['angle_deg']:g} deg, "
+              f"{pr['n_steps']} x {pr['step'] * 1e3:g} mm steps (a_m {pr['max_acceleration']:g}"
+              f" m/s^2, t_d {step_duration(pr['step'], pr['max_acceleration']) * 1e3:.1f} ms)"
+              f"{' and back' if pr['unload'] else ''}, nodes/bristle {s.params['n_nodes']}")
+    t0 = time.perf_counter()
+    try:
+        outcomes = run_many_from_args(specs, out, args, desc="wedge runs")
+    except KeyboardInterrupt:
+        _err("cancelled: finished runs are kept; run the same command again to go on")
+        return EXIT_CANCELLED
+    wall = time.perf_counter() - t0
+    return write_wedge_outputs(out, specs, outcomes, wall)
+
+
+def write_wedge_outputs(out: Path, specs, outcomes, wall: float) -> int:
+    from .plots import plot_force_depth
+
+    curves, rows, checks = [], [], {}
+    single = len(specs) == 1
+    for spec, o in zip(specs, outcomes):
+        if not o.ok:
+            continue
+        s = o.summary
+        angle = spec.params["angle_deg"]
+        label = f"{angle:g} deg" if angle is not None else spec.run_id
+        curves.append((label, s["depth_m"], s["force_N"], s["phase"]))
+        checks[spec.run_id] = curve_checks(s["depth_m"], s["force_N"], s["phase"])
+        checks[spec.run_id].update(hold_limit_hits=s["hold_limit_hits"], wall_s=o.wall_s,
+                                   cpu_s=s.get("cpu_s"),
+                                   angle_deg=angle, sim_time_s=s["sim_time_s"],
+                                   steps=s["steps"], dt=s["dt"], n_nodes=s["n_nodes"],
+                                   local_damping=s.get("local_damping"))
+        for i in range(len(s["depth_m"])):
+            rows.append((spec.run_id, angle, s["depth_m"][i], s["force_N"][i], s["phase"][i],
+                         s["converged"][i]))
+        if not single:
+            write_force_depth_csv(out / f"force_depth_{_safe_id(spec.run_id)}.csv",
+                                  s["depth_m"], s["force_N"], s["phase"])
+    done = [r for r in rows]
+    if single and done:
+        write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
+                              [r[3] for r in done], [r[4] for r in done])
+    elif done:
+        write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
+                              [r[3] for r in done], [r[4] for r in done],
+                              {"angle_deg": [f"{r[1]:g}" if r[1] is not None else ""
+                                             for r in done],
+                               "run_id": [r[0] for r in done]})
+    with open(out / "wedge_records.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run_id", "angle_deg", "depth_m", "force_N", "phase", "converged"])
+        for r in rows:
+            w.writerow([r[0], "" if r[1] is None else f"{r[1]:.6g}", f"{r[2]:.6g}",
+                        f"{r[3]:.9g}", r[4], int(bool(r[5]))])
+    if curves:
+        plot_force_depth(curves, out / "force_depth.png",
+                         "Wedge force against depth (hold-until-steady, seed 4.2)")
+    write_outcomes(out / "outcomes.json", outcomes)
+    write_json_atomic(out / "study.json", {
+        "study": "wedge", "wall_s": wall, "runs": len(specs),
+        "failed": [o.run_id for o in outcomes if not o.ok],
+        "quasi_static": "no mass scaling; the scene's own Cundall local damping "
+                        "(environment.local_damping) settles each step",
+        "checks": checks,
+        "protocols": {s.run_id: s.params["protocol"] for s in specs}})
+    print()
+    print(f"{'run':<22} {'angle':>6} {'peak F [N]':>11} {'unload<load':>11} "
+          f"{'hold limit':>10} {'wall':>9}")
+    for rid, c in checks.items():
+        print(f"{rid:<22} {c['angle_deg'] or 0:>6.4g} {c['peak_force_N']:>11.4g} "
+              f"{str(c.get('unload_below_load', '-')):>11} {c['hold_limit_hits']:>10} "
+              f"{c['wall_s']:>8.1f}s")
+    print(f"study wall time {wall:.1f} s; outputs in {out}/ (force_depth.csv, "
+          f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
+    fails = failures_text(outcomes)
+    if fails:
+        _err("failed runs:\n" + fails)
+        return EXIT_FAILED
+    return EXIT_OK
