@@ -9,8 +9,10 @@ inside), the 3D view follows every change at once, Start queues the design as a 
 background worker pool (``studio.jobs.JobManager``: the worker process runs the engine and
 writes HDF5; this process only reads result files with ``engine.open_result``), the latest
 frames of a running job stream into the view, and a finished run can be scrubbed, played and
-plotted. Beside viser, the same JobManager is served as the HTTP API (``studio.server``) on
-``--api-port`` (default port + 1), plus two studio routes:
+plotted. The Studies tab (``studio.ui_studies``) starts a study (wedge, spin, refinement,
+convergence...) as a job of the same pool and shows its plots, table and files. Beside
+viser, the same JobManager is served as the HTTP API (``studio.server``) on ``--api-port``
+(default port + 1), plus two studio routes:
 
 * ``GET /studio?preset=NAME`` opens the studio on a preset: it loads the preset into the
   session and redirects the browser to the viser page (viser 1.1 does not tell the server
@@ -39,6 +41,7 @@ from . import ui_view as uv
 
 STREAM_HZ = 20.0          # at most this many live frames per second into the view
 POLL_S = 0.1              # job polling period
+STUDIES_POLL_S = 0.5      # the Studies tab's polling period
 PLOT_CURSOR_S = 0.25      # plot cursor updates at most this often while playing
 MAX_VIEW_SEGMENTS = 2_000_000  # above this the view draws every bristle as one segment
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x")
@@ -256,6 +259,7 @@ class Studio:
         self.tab_design = tabs.add_tab("Design")
         self.tab_run = tabs.add_tab("Run")
         self.tab_results = tabs.add_tab("Results")
+        self.tab_studies = tabs.add_tab("Studies")
         self.widgets: dict[str, Any] = {}
         self.error_md: dict[str, Any] = {}
         with self.tab_design:
@@ -330,6 +334,15 @@ class Studio:
             self.bt_design.on_click(lambda e: self.set_mode("design"))
             self.plots: dict[str, Any] = {}
             self.figures: dict[str, Any] = {}
+        self.studies = None
+        if self.jobs is not None:
+            from .ui_studies import StudiesTab
+
+            self.studies = StudiesTab(gui, self.tab_studies, self.jobs, preset_names(),
+                                      _md_escape)
+        else:
+            with self.tab_studies:
+                gui.add_markdown("No job pool: studies need the studio's workers.")
 
     def _add_widget(self, f: us.UiField):
         gui = self.server.gui
@@ -902,13 +915,16 @@ class Studio:
 
     # ----------------------------------------------------------------- polling
     def _poll_loop(self) -> None:
-        last = time.monotonic()
+        last = last_studies = time.monotonic()
         while not self._stop.wait(1.0 / STREAM_HZ):
             now = time.monotonic()
             try:
                 if now - last >= POLL_S:
                     last = now
                     self._poll_jobs()
+                if self.studies is not None and now - last_studies >= STUDIES_POLL_S:
+                    last_studies = now
+                    self.studies.poll()
                 self._stream_live()
                 self._advance_play(now)
             except Exception as exc:  # never let the poller die
@@ -917,7 +933,7 @@ class Studio:
     def _poll_jobs(self) -> None:
         if self.jobs is None:
             return
-        jobs = self.jobs.list(limit=50)
+        jobs = self.jobs.list(limit=50, kind="run")  # (studies: the Studies tab)
         rows = ["| run | status | progress | message |", "|---|---|---|---|"]
         for j in jobs:
             msg = j.error or ""
@@ -1022,6 +1038,7 @@ class Studio:
                 "playback_job": self.playback_job,
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
+                "studies": self.studies.state() if self.studies is not None else None,
                 "scene": self.scene,
             }
 
@@ -1110,7 +1127,8 @@ def _serve_api(app, host: str, port: int):
 def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] = None,
                data_dir: Path = Path(DEFAULT_DATA_DIR), workers: Optional[int] = None,
                api_port: Optional[int] = None, ready_file: Optional[Path] = None,
-               stop: Optional[threading.Event] = None, token: Optional[str] = None) -> int:
+               stop: Optional[threading.Event] = None, token: Optional[str] = None,
+               scheduler: Optional[str] = None) -> int:
     """Start the studio and block until Ctrl-C (or ``stop`` is set). ``token`` guards the
     HTTP API (bearer token); the viser page itself has no authentication, so a studio bound
     to a non-loopback address is open to whoever reaches its port."""
@@ -1132,7 +1150,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
               f"can reach port {port} can design and run jobs"
               + ("" if token else "; the HTTP API has no --token either"), file=sys.stderr)
     try:
-        jobs = JobManager(Path(data_dir), workers=workers)
+        jobs = JobManager(Path(data_dir), workers=workers, scheduler=scheduler)
     except Exception as exc:
         print(f"studio: cannot start the job pool in {data_dir}: {type(exc).__name__}: {exc}",
               file=sys.stderr)
@@ -1173,7 +1191,8 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
 def _cmd_studio(args) -> int:
     return run_studio(host=args.host, port=args.port, preset=args.preset,
                       data_dir=Path(args.data), workers=args.workers, api_port=args.api_port,
-                      token=args.token or os.environ.get("BRUSH_STUDIO_TOKEN") or None)
+                      token=args.token or os.environ.get("BRUSH_STUDIO_TOKEN") or None,
+                      scheduler=args.scheduler)
 
 
 def register(subparsers) -> None:
@@ -1196,4 +1215,7 @@ def register(subparsers) -> None:
     p.add_argument("--token", default=None,
                    help="bearer token the HTTP API requires (default: $BRUSH_STUDIO_TOKEN; "
                         "none: open)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="Dask scheduler that study jobs run their simulations on (default: "
+                        "each study job starts one local Dask worker)")
     p.set_defaults(func=_cmd_studio)

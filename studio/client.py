@@ -9,6 +9,11 @@
     data = client.series(run_id, "brushes/brush/root_force")
     t, fz = data["time"], data["values"][:, 2]      # numpy arrays
 
+    study_id = client.submit_study("wedge", {"preset": "wedge_60", "depth_mm": 2})
+    client.wait(study_id)                           # tqdm bar over the study's runs
+    client.files(study_id)                          # ["force_depth.csv", ...]
+    client.download_file(study_id, "force_depth.csv", "out/force_depth.csv")
+
 Errors from the server raise :class:`ApiError` with the HTTP status and the server's message
 (for an invalid scene, ``problems`` lists every bad field).
 """
@@ -113,8 +118,9 @@ class Client:
 
     def wait(self, run_id: str, progress: bool = True, poll: float = 0.5,
              timeout: Optional[float] = None) -> dict:
-        """Poll until the run has finished; returns its final state. ``progress``: a tqdm
-        bar over simulated time with steps/s and ETA. TimeoutError after ``timeout`` s."""
+        """Poll until the run (or study) has finished; returns its final state.
+        ``progress``: a tqdm bar over simulated time with steps/s and ETA (for a study: over
+        its progress, 0..1, with its message). TimeoutError after ``timeout`` s."""
         from tqdm import tqdm
 
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -122,6 +128,23 @@ class Client:
         try:
             while True:
                 info = self.get(run_id)
+                if info.get("kind") == "study":
+                    if progress and bar is None:
+                        bar = tqdm(total=1.0, desc=f"study {run_id}", dynamic_ncols=True,
+                                   bar_format="{desc} {percentage:3.0f}%|{bar}| "
+                                              "[{elapsed}{postfix}]")
+                    if bar is not None:
+                        bar.n = min(float(info.get("progress") or 0.0), 1.0)
+                        bar.set_postfix_str(f"{info['status']}, {info.get('message') or ''}",
+                                            refresh=False)
+                        bar.refresh()
+                    if info["status"] in FINAL_STATUSES:
+                        return info
+                    if deadline is not None and time.monotonic() > deadline:
+                        raise TimeoutError(f"study {run_id} is still {info['status']} after "
+                                           f"{timeout} s")
+                    time.sleep(poll)
+                    continue
                 until = info.get("until")
                 if progress and bar is None and until:
                     bar = tqdm(total=float(until), unit="s", desc=f"run {run_id}",
@@ -152,10 +175,13 @@ class Client:
     def download(self, run_id: str, path: Union[str, Path]) -> Path:
         """Save the run's HDF5 result file to ``path`` (written to a temporary name, then
         renamed: an interrupted download leaves no half file)."""
+        return self._download(f"/api/runs/{run_id}/result", path)
+
+    def _download(self, url: str, path: Union[str, Path]) -> Path:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".part")
-        with self._http.stream("GET", f"/api/runs/{run_id}/result") as r:
+        with self._http.stream("GET", url) as r:
             if r.status_code >= 400:
                 r.read()
                 try:
@@ -186,6 +212,43 @@ class Client:
         return {"time": np.array(data["time"], dtype=float),
                 "values": np.array(values, dtype=float),
                 "status": data["status"], "n_frames": data["n_frames"]}
+
+    # ------------------------------------------------------------------ studies
+    def submit_study(self, study: str, options: Optional[dict] = None,
+                     name: Optional[str] = None) -> str:
+        """Submit a study (``wedge``, ``spin``, ``refinement``, ``convergence``, ...) with
+        its options by name (``{"preset": "wedge_60", "depth_mm": 2, "nodes": 3}``; see
+        :meth:`study_types`); returns the job id. :class:`ApiError` (422) names a bad
+        study or option."""
+        body: dict = {"study": study, "options": options or {}}
+        if name:
+            body["name"] = name
+        return self._request("POST", "/api/studies", json=body).json()["id"]
+
+    def study(self, study_id: str) -> dict:
+        return self._request("GET", f"/api/studies/{study_id}").json()
+
+    def studies(self, status: Optional[str] = None) -> list[dict]:
+        return self._request("GET", "/api/studies",
+                             params={"status": status} if status else None).json()
+
+    def study_types(self) -> dict:
+        """Each study's options (name, kind, help, default, ...)."""
+        return self._request("GET", "/api/study-types").json()
+
+    def cancel_study(self, study_id: str) -> dict:
+        return self._request("DELETE", f"/api/studies/{study_id}").json()
+
+    def files(self, study_id: str) -> list[str]:
+        """The study's output files so far (names relative to its folder)."""
+        data = self._request("GET", f"/api/studies/{study_id}/files").json()
+        return [f["name"] for f in data["files"]]
+
+    def download_file(self, study_id: str, name: str, path: Union[str, Path]) -> Path:
+        """Save one output file of a study (a name from :meth:`files`) to ``path``."""
+        from urllib.parse import quote
+
+        return self._download(f"/api/studies/{study_id}/files/{quote(name)}", path)
 
     def presets(self) -> list[dict]:
         return self._request("GET", "/api/presets").json()

@@ -27,6 +27,15 @@ kept (engine result files stay readable after a crash) and a new worker takes it
 When a manager starts on a folder whose database lists ``running`` jobs (the previous server
 was killed), those are marked ``failed`` as interrupted; ``queued`` jobs are run.
 
+Studies run as jobs too (``submit_study``): the worker runs the study command (``brush-studio
+study NAME`` or ``convergence``) in-process with the options given as a dict (checked by the
+study's own parser; no output/scheduler options and no file paths from clients: scenes are
+preset names), writing into ``DATA/runs/<job_id>/study/``; its tqdm bars become the job's
+progress and a cancel interrupts it like Ctrl-C::
+
+    job_id = jobs.submit_study("wedge", {"preset": "wedge_60", "depth_mm": 2, "nodes": 3})
+    jobs.wait(job_id).files          # ["force_depth.csv", "force_depth.png", ...]
+
 Uploaded meshes (``add_mesh``) are stored under ``DATA/meshes/`` by content hash; a scene
 names one as ``"file": "mesh:<id>"`` in a mesh shape, resolved here before validation.
 
@@ -112,6 +121,11 @@ class JobInfo:
     assembled: list = field(default_factory=list)  # the stages the build assembled
     warnings: list = field(default_factory=list)   # the build's and the run's warnings
     wall_s: Optional[float] = None    # started -> finished (or -> now while running)
+    kind: str = "run"                 # "run" (one scene) or "study" (submit_study)
+    study: Optional[str] = None       # a study job's study name (wedge, spin, ...)
+    options: dict = field(default_factory=dict)  # a study job's options, as submitted
+    message: Optional[str] = None     # a study job's progress text (its current bar)
+    files: list = field(default_factory=list)    # a study job's output files (relative)
 
     @property
     def done(self) -> bool:
@@ -123,8 +137,14 @@ class JobInfo:
 
 _COLUMNS = ("id", "name", "status", "created", "started", "finished", "progress", "sim_time",
             "until", "steps_per_s", "eta_s", "dt", "dt_limited_by", "stages", "summary",
-            "error", "worker_pid", "assembled", "warnings")
-_JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings": list}
+            "error", "worker_pid", "assembled", "warnings", "kind", "study", "options",
+            "message")
+_JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings": list,
+                 "options": dict}
+# columns added after the first release: added to an older database when it is opened
+_ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
+                  ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
+                  ("message", "TEXT"))
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -185,12 +205,231 @@ class MeshError(ValueError):
         self.status = status
 
 
+# ----------------------------------------------------------------------------- studies
+#: study name -> the module that adds its ``brush-studio`` subcommand (``convergence`` is a
+#: top-level command, the others are ``brush-studio study NAME``)
+STUDY_MODULES = {
+    "wedge": "studio.studies.wedge",
+    "spin": "studio.studies.spin",
+    "refinement": "studio.studies.refinement",
+    "sensitivity": "studio.studies.sensitivity",
+    "montecarlo": "studio.studies.sensitivity",
+    "rod": "studio.studies.rod",
+    "convergence": "studio.convergence",
+}
+STUDIES = tuple(STUDY_MODULES)
+#: options the job layer sets itself: a client may not choose where files go or which
+#: cluster runs them
+SERVER_OPTIONS = {"output": "the output folder is the job's own (DATA/runs/<id>/study/)",
+                  "o": "the output folder is the job's own (DATA/runs/<id>/study/)",
+                  "scheduler": "the Dask scheduler is chosen when the server starts "
+                               "(brush-studio serve --scheduler)",
+                  "workers": "a study job runs on one local Dask worker (or the server's "
+                             "--scheduler)",
+                  "no_progress": "progress is reported through the job",
+                  "quiet": "progress is reported through the job",
+                  "help": "not an option of a job"}
+#: options naming scenes: preset NAMES only, resolved by studio.presets.preset_path
+SCENE_OPTIONS = ("preset", "scene")
+STUDY_LOG = "log.txt"  # the study's printed output, in its output folder
+
+
+class StudyOptionError(ValueError):
+    """A study job refused: unknown study, unknown or bad option, a server-only option or a
+    file path where a preset name belongs. ``problems``: ``(option, value, message)``."""
+
+    def __init__(self, problems):
+        self.problems = [tuple(p) for p in problems]
+        super().__init__("; ".join(f"{o} = {v!r}: {m}" if v is not None else f"{o}: {m}"
+                                   for o, v, m in self.problems))
+
+    def as_dicts(self) -> list[dict]:
+        return [{"option": o, "value": jsonable(v), "message": m} for o, v, m in self.problems]
+
+
+def _study_parser_class():
+    import argparse
+
+    class _Parser(argparse.ArgumentParser):
+        """argparse that raises instead of printing and exiting."""
+
+        def error(self, message):
+            raise StudyOptionError([("options", None, message)])
+
+        def exit(self, status=0, message=None):
+            raise StudyOptionError([("options", None, (message or "").strip()
+                                     or f"argparse exit {status}")])
+
+    return _Parser
+
+
+def study_parser(study: str):
+    """The argparse parser of ``study``'s command (the CLI's own options, errors raised as
+    :class:`StudyOptionError`)."""
+    import importlib
+
+    if study not in STUDY_MODULES:
+        raise StudyOptionError([("study", study, f"unknown study; one of {list(STUDIES)}")])
+    root = _study_parser_class()(prog="brush-studio study", add_help=False)
+    sub = root.add_subparsers(dest="study")
+    mod = importlib.import_module(STUDY_MODULES[study])
+    if study == "convergence":
+        mod.register(sub)
+    else:
+        mod.add_parser(sub)
+    parser = sub.choices[study]
+    parser.prog = f"brush-studio {'' if study == 'convergence' else 'study '}{study}"
+    return parser
+
+
+def study_options(study: str) -> list[dict]:
+    """The options a client may give ``study``: name (the options dict's key), kind (flag,
+    value, list), help, default, required."""
+    import argparse
+
+    out = []
+    for a in study_parser(study)._actions:
+        if a.dest in SERVER_OPTIONS or a.dest in ("func",) or isinstance(a, argparse._HelpAction):
+            continue
+        if isinstance(a, argparse._StoreTrueAction):
+            kind = "flag"
+        elif isinstance(a, argparse._AppendAction):
+            kind = "list"
+        else:
+            kind = "value"
+        default = a.default if a.default is not argparse.SUPPRESS else None
+        out.append({"name": a.dest, "kind": kind, "help": a.help or "",
+                    "default": jsonable(default), "required": bool(a.required),
+                    "choices": jsonable(list(a.choices)) if a.choices else None,
+                    "preset": a.dest in SCENE_OPTIONS})
+    return out
+
+
+def _resolve_preset(option: str, value) -> str:
+    """A preset NAME -> its file (studio.presets.preset_path); anything else refused."""
+    if not isinstance(value, str) or not value.strip():
+        raise StudyOptionError([(option, value, "must be a preset name (GET /api/presets)")])
+    try:
+        from .presets import list_presets, preset_path
+    except ImportError as exc:  # pragma: no cover (the presets are part of the project)
+        raise StudyOptionError([(option, value, f"presets unavailable: {exc}")]) from None
+    try:
+        return str(preset_path(value))
+    except KeyError:
+        names = [p["name"] for p in list_presets()]
+        raise StudyOptionError([(option, value, f"not a preset name (file paths are not "
+                                                f"accepted); presets: {names}")]) from None
+
+
+def study_argv(study: str, options: Optional[dict]) -> list[str]:
+    """The command-line arguments of ``study`` for ``options`` (keys: option names with
+    ``_`` or ``-``, e.g. ``{"preset": "wedge_60", "depth_mm": 3, "nodes": 4}`` ->
+    ``["--preset=.../wedge_60.json", "--depth-mm=3", "--nodes=4"]``), checked with the
+    study's own parser. Flags take true/false, list options a list (or one value), other
+    options a value (a list is joined with commas: ``"angles": [30, 60]`` -> ``30,60``).
+    Output, scheduler and worker options are refused (the job layer sets them); scenes are
+    preset names only. Raises :class:`StudyOptionError` naming every bad option."""
+    import argparse
+
+    parser = study_parser(study)
+    if options is None:
+        options = {}
+    if not isinstance(options, dict):
+        raise StudyOptionError([("options", type(options).__name__,
+                                 "must be an object of option: value")])
+    actions = {a.dest: a for a in parser._actions if a.dest not in ("help", "func")}
+    allowed = sorted(d for d in actions if d not in SERVER_OPTIONS)
+    problems: list = []
+    argv: list[str] = []
+    positional: list[str] = []
+    for key, value in options.items():
+        k = str(key).lstrip("-").replace("-", "_")
+        if k in SERVER_OPTIONS:
+            problems.append((str(key), value, f"not accepted: {SERVER_OPTIONS[k]}"))
+            continue
+        a = actions.get(k)
+        if a is None:
+            problems.append((str(key), value, f"unknown option of study {study!r}; "
+                                              f"options: {allowed}"))
+            continue
+        flag = max(a.option_strings, key=len) if a.option_strings else None
+        try:
+            if isinstance(a, argparse._StoreTrueAction):
+                if not isinstance(value, bool):
+                    raise StudyOptionError([(str(key), value, "must be true or false")])
+                if value:
+                    argv.append(flag)
+                continue
+            if value is None:
+                continue
+            values = list(value) if isinstance(value, (list, tuple)) else [value]
+            for v in values:
+                if isinstance(v, (dict, list, tuple)) or isinstance(v, bool):
+                    raise StudyOptionError([(str(key), value, "must be a number or text "
+                                                              "(or a list of them)")])
+                if isinstance(v, float) and not math.isfinite(v):
+                    raise StudyOptionError([(str(key), value, "must be finite")])
+                if "\x00" in str(v) or "\n" in str(v):
+                    raise StudyOptionError([(str(key), value, "bad characters")])
+            if k in SCENE_OPTIONS:
+                values = [_resolve_preset(str(key), v) for v in values]
+            if not a.option_strings:  # a positional (convergence's scene)
+                if len(values) != 1:
+                    raise StudyOptionError([(str(key), value, "takes one value")])
+                positional.append(str(values[0]))
+            elif isinstance(a, argparse._AppendAction):
+                argv += [f"{flag}={v}" for v in values]
+            else:
+                argv.append(f"{flag}=" + ",".join(str(v) for v in values))
+        except StudyOptionError as exc:
+            problems += exc.problems
+    if problems:
+        raise StudyOptionError(problems)
+    argv = positional + argv
+    try:
+        parser.parse_args(argv + ["--output", "/nonexistent/validation-only"])
+    except StudyOptionError as exc:
+        raise StudyOptionError([("options", None, f"{exc.problems[0][2]} (study {study!r}; "
+                                                  f"options: {allowed})")]) from None
+    return argv
+
+
+def _study_files(folder: Path) -> list[str]:
+    """The study's output files, relative POSIX paths, sorted (hidden and scratch files and
+    links left out)."""
+    if not folder.is_dir():
+        return []
+    out = []
+    for root, dirs, files in os.walk(folder, followlinks=False):
+        dirs[:] = [d for d in dirs if not d.startswith(".")]
+        for f in files:
+            p = Path(root) / f
+            if f.startswith(".") or f.endswith(".tmp") or p.is_symlink() or not p.is_file():
+                continue
+            out.append(p.relative_to(folder).as_posix())
+    return sorted(out)
+
+
+def _tail(path: Path, n: int = 12) -> str:
+    try:
+        lines = path.read_text(errors="replace").splitlines()
+    except OSError:
+        return ""
+    lines = [ln.rstrip() for ln in lines if ln.strip() and "\r" not in ln]
+    return "\n".join(lines[-n:])
+
+
 # ----------------------------------------------------------------------------- worker process
 def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
     """A worker process: import the engine once, then run the jobs the manager sends."""
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     # Ctrl-C in a terminal reaches the whole process group: the manager decides for us.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # a study job starts a local Dask cluster (worker processes) from this process: allowed
+    # although the manager started this one as a daemon (which it ends when it exits)
+    import multiprocessing
+
+    multiprocessing.current_process()._config["daemon"] = False
     import numba
 
     import engine  # noqa: F401  (numba, the kernels' cache: once per worker)
@@ -201,11 +440,15 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
             msg = conn.recv()
         except (EOFError, OSError):
             return
-        if not msg or msg[0] != "run":
+        if not msg or msg[0] not in ("run", "study"):
             return
-        _, seq, job_id, scene_json, h5_path = msg
         try:
-            _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path)
+            if msg[0] == "run":
+                _, seq, job_id, scene_json, h5_path = msg
+                _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path)
+            else:
+                _, seq, job_id, study, argv, out_dir = msg
+                _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, argv, out_dir)
         except (BrokenPipeError, EOFError, OSError):
             return  # the manager is gone
 
@@ -256,6 +499,135 @@ def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) 
                                 "error": error, "finished": time.time()}))
 
 
+def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, argv, out_dir) -> None:
+    """Run a study command in this process (its runner starts its own local Dask cluster,
+    or uses the server's scheduler), its printed output into ``out_dir/log.txt``, its tqdm
+    bars reported as the job's progress. A cancel interrupts it like Ctrl-C (the study
+    commands keep finished runs and return 130)."""
+    import contextlib
+
+    import tqdm as tqdm_module
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    log_path = out / STUDY_LOG
+    t0 = time.time()
+    send_lock = threading.Lock()
+    interrupt = threading.Event()   # set when a cancel interrupts the study
+
+    def cancelled() -> bool:
+        return cancel_seq.value == seq or os.getppid() != parent_pid
+
+    def send(kind: str, data: dict) -> None:
+        with send_lock:
+            conn.send((kind, job_id, data))
+
+    last = [0.0]
+
+    def report(bar) -> None:
+        now = time.monotonic()
+        total = bar.total or 0
+        done = total and bar.n >= total
+        if now - last[0] < 0.25 and not done:
+            return
+        last[0] = now
+        frac = min(max(float(bar.n) / total, 0.0), 1.0) if total else 0.0
+        desc = (bar.desc or "progress").rstrip(": ")
+        msg = f"{desc}: {bar.n:.4g}/{total:g} {bar.unit}" if total else desc
+        try:
+            send("study_progress", {"progress": frac, "message": msg})
+        except (OSError, ValueError):
+            pass
+
+    original_tqdm = tqdm_module.tqdm
+    sink = open(os.devnull, "w")
+
+    class JobBar(original_tqdm):
+        """The study's bars: drawn nowhere, reported to the manager."""
+
+        monitor_interval = 0
+
+        def __init__(self, *args, **kwargs):
+            kwargs["disable"] = False
+            kwargs["file"] = sink
+            kwargs.pop("dynamic_ncols", None)
+            super().__init__(*args, **kwargs)
+
+        def display(self, *args, **kwargs):
+            report(self)
+            return super().display(*args, **kwargs)
+
+    def on_sigint(signum, frame):
+        if interrupt.is_set():
+            raise KeyboardInterrupt  # a cancel (a terminal's Ctrl-C alone is the manager's)
+
+    stop_watch = threading.Event()
+
+    def watch() -> None:
+        while not stop_watch.wait(0.1):
+            if cancelled():
+                interrupt.set()
+                os.kill(os.getpid(), signal.SIGINT)
+                return
+
+    code, error = 1, None
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    watcher = threading.Thread(target=watch, name="study-cancel", daemon=True)
+    tqdm_module.tqdm = JobBar
+    try:
+        with open(log_path, "a", buffering=1) as log, contextlib.redirect_stdout(log), \
+                contextlib.redirect_stderr(log):
+            print(f"$ brush-studio {'' if study == 'convergence' else 'study '}{study} "
+                  + " ".join(argv), flush=True)
+            watcher.start()
+            try:
+                args = study_parser(study).parse_args(argv)
+                code = int(args.func(args) or 0)
+            except KeyboardInterrupt:
+                code = 130
+            except StudyOptionError as exc:
+                code, error = 2, str(exc)
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else 1
+            except Exception as exc:  # a bug in a study: its traceback in the log
+                code = 1
+                error = f"{type(exc).__name__}: {exc}"
+                traceback.print_exc()
+            finally:
+                stop_watch.set()
+            print(f"exit code {code}", flush=True)
+    except KeyboardInterrupt:  # a cancel arriving after the study had returned
+        code = 130 if code == 0 and interrupt.is_set() else code
+    finally:
+        stop_watch.set()
+        tqdm_module.tqdm = original_tqdm
+        signal.signal(signal.SIGINT, previous)
+        sink.close()
+    if interrupt.is_set() and code != 0:
+        status, error = "cancelled", "cancelled"
+    elif code == 0:
+        status = "completed"
+    else:
+        status = "failed"
+        what = {1: "some runs failed", 2: "bad input", 130: "interrupted"}.get(
+            code, f"exit code {code}")
+        detail = error or _tail(log_path)
+        error = f"the study ended with exit code {code} ({what})" + \
+            (f":\n{detail}" if detail else "")
+    summary = {"exit_code": code, "wall_s": time.time() - t0, "study": study,
+               "files": len(_study_files(out))}
+    study_json = out / "study.json"
+    if study_json.is_file():
+        try:
+            data = json.loads(study_json.read_text())
+            summary["runs"] = data.get("runs")
+            summary["failed_runs"] = data.get("failed")
+        except (OSError, ValueError, AttributeError):
+            pass
+    send("done", {"status": status, "summary": jsonable(summary), "error": error,
+                  "finished": time.time()})
+
+
 class _Worker:
     """The manager's handle on one worker process (used by the monitor thread only, except
     ``cancel_seq`` which ``cancel`` may set under the manager's lock)."""
@@ -275,6 +647,7 @@ class _Worker:
         self.job_id: Optional[str] = None
         self.seq: Optional[int] = None
         self.cancel_at: Optional[float] = None  # monotonic time a cancel was requested
+        self.grace: float = 5.0  # how long the running job may take to honour a cancel
 
     @property
     def pid(self) -> Optional[int]:
@@ -305,7 +678,8 @@ class JobManager:
     """
 
     def __init__(self, data_dir: Union[str, Path], workers: Optional[int] = None, *,
-                 cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES):
+                 cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES,
+                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0):
         import multiprocessing as mp
 
         self.data_dir = Path(data_dir).resolve()
@@ -322,6 +696,11 @@ class JobManager:
         self.threads_per_worker = max(1, cores // workers)
         self.cancel_grace_s = float(cancel_grace_s)
         self.max_triangles = int(max_triangles)
+        if scheduler is not None and "://" not in str(scheduler):
+            raise ValueError(f"scheduler = {scheduler!r}: expected an address like "
+                             f"tcp://HOST:PORT")
+        self.scheduler = scheduler  # study jobs' Dask scheduler (None: one local worker)
+        self.study_cancel_grace_s = float(study_cancel_grace_s)
 
         self._lock_file = self._take_folder_lock()
         self._lock = threading.RLock()          # the database connection and worker table
@@ -333,6 +712,10 @@ class JobManager:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.executescript(_SCHEMA)
+            have = {r[1] for r in self._db.execute("PRAGMA table_info(jobs)").fetchall()}
+            for col, decl in _ADDED_COLUMNS:
+                if col not in have:
+                    self._db.execute(f"ALTER TABLE jobs ADD COLUMN {col} {decl}")
             self._recover()
 
         self._ctx = mp.get_context("spawn")
@@ -379,6 +762,51 @@ class JobManager:
         self._wake()
         return job_id
 
+    def submit_study(self, study: str, options: Optional[dict] = None,
+                     name: Optional[str] = None) -> str:
+        """Queue a study (``wedge``, ``spin``, ``refinement``, ``sensitivity``,
+        ``montecarlo``, ``rod``, ``convergence``) with ``options`` (its command-line options
+        as a dict, see :func:`study_argv`); returns the job id. Raises
+        :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
+        files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
+        Dask worker, or on the manager's ``scheduler``."""
+        argv = study_argv(study, options)
+        if name is None or not str(name).strip():
+            name = f"{study} study"
+        name = str(name).strip()[:200]
+        job_id = uuid.uuid4().hex[:12]
+        run_dir = self.runs_dir / job_id
+        (run_dir / "study").mkdir(parents=True, exist_ok=False)
+        spec = {"study": study, "options": jsonable(options or {}), "argv": argv}
+        (run_dir / "study_job.json").write_text(json.dumps(spec, indent=1) + "\n")
+        with self._lock:
+            self._db.execute(
+                "INSERT INTO jobs (id, name, status, created, scene, kind, study, options, "
+                "argv) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?)",
+                (job_id, name, time.time(), study, json.dumps(spec["options"]),
+                 json.dumps(argv)))
+            self._changed.notify_all()
+        self._wake()
+        return job_id
+
+    def study_dir(self, job_id: str) -> Path:
+        """A study job's output folder (KeyError if unknown or not a study)."""
+        info = self.get(job_id)
+        if info.kind != "study":
+            raise KeyError(job_id)
+        return self.runs_dir / job_id / "study"
+
+    def study_files(self, job_id: str) -> list[str]:
+        """A study job's output files so far: paths relative to its folder, sorted."""
+        return _study_files(self.study_dir(job_id))
+
+    def study_file(self, job_id: str, name: str) -> Path:
+        """One output file of a study job, by a name from :meth:`study_files` only (no
+        other path is ever opened); KeyError otherwise."""
+        if name not in self.study_files(job_id):
+            raise KeyError(name)
+        return self.study_dir(job_id) / name
+
     def get(self, job_id: str) -> JobInfo:
         """The job's state; KeyError if there is no such job."""
         if not isinstance(job_id, str) or not _JOB_ID.match(job_id):
@@ -390,13 +818,21 @@ class JobManager:
             raise KeyError(job_id)
         return self._info(row)
 
-    def list(self, status: Optional[str] = None, limit: Optional[int] = None) -> list[JobInfo]:
-        """All jobs (or those with ``status``), newest first."""
+    def list(self, status: Optional[str] = None, limit: Optional[int] = None,
+             kind: Optional[str] = None) -> list[JobInfo]:
+        """All jobs (or those with ``status``, of ``kind`` "run" or "study"), newest
+        first."""
         sql = f"SELECT {', '.join(_COLUMNS)} FROM jobs"
         args: list = []
+        where = []
         if status is not None:
-            sql += " WHERE status = ?"
+            where.append("status = ?")
             args.append(status)
+        if kind is not None:
+            where.append("kind = ?")
+            args.append(kind)
+        if where:
+            sql += " WHERE " + " AND ".join(where)
         sql += " ORDER BY seq DESC"
         if limit is not None:
             sql += " LIMIT ?"
@@ -649,6 +1085,9 @@ class JobManager:
         if d["started"] is not None:
             end = d["finished"] if d["finished"] is not None else time.time()
             d["wall_s"] = max(0.0, end - d["started"])
+        d["kind"] = d["kind"] or "run"
+        if d["kind"] == "study":
+            d["files"] = _study_files(self.runs_dir / d["id"] / "study")
         return JobInfo(**d)
 
     def _update(self, job_id: str, **values) -> None:
@@ -722,22 +1161,33 @@ class JobManager:
         for w in idle:
             with self._lock:
                 row = self._db.execute(
-                    "SELECT seq, id, scene FROM jobs WHERE status = 'queued' "
-                    "ORDER BY seq LIMIT 1").fetchone()
+                    "SELECT seq, id, scene, kind, study, argv FROM jobs WHERE status = "
+                    "'queued' ORDER BY seq LIMIT 1").fetchone()
                 if row is None:
                     return
-                seq, job_id, scene_json = row
+                seq, job_id, scene_json, kind, study, argv = row
                 cur = self._db.execute(
                     "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
                     "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
                 if not cur.rowcount:
                     continue
                 w.job_id, w.seq, w.cancel_at = job_id, seq, None
+                w.grace = self.study_cancel_grace_s if kind == "study" else \
+                    self.cancel_grace_s
                 self._changed.notify_all()
-            h5 = self.runs_dir / job_id / "result.h5"
-            h5.parent.mkdir(parents=True, exist_ok=True)
+            if kind == "study":
+                out = self.runs_dir / job_id / "study"
+                out.mkdir(parents=True, exist_ok=True)
+                argv = json.loads(argv or "[]") + ["--output", str(out)]
+                argv += ["--scheduler", self.scheduler] if self.scheduler else \
+                    ["--workers", "1"]
+                msg = ("study", seq, job_id, study, argv, str(out))
+            else:
+                h5 = self.runs_dir / job_id / "result.h5"
+                h5.parent.mkdir(parents=True, exist_ok=True)
+                msg = ("run", seq, job_id, scene_json, str(h5))
             try:
-                w.conn.send(("run", seq, job_id, scene_json, str(h5)))
+                w.conn.send(msg)
             except (OSError, ValueError):
                 pass  # the worker died: its sentinel reports it and fails the job
 
@@ -765,6 +1215,9 @@ class JobManager:
             self._update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
                          until=data["until"], sim_time=data["sim_time"],
                          assembled=data["assembled"], warnings=data["warnings"])
+        elif kind == "study_progress":
+            self._update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
+                         message=str(data.get("message") or "")[:300])
         elif kind == "progress":
             self._update(job_id, sim_time=data["sim_time"], until=data["until"],
                          progress=min(max(float(data["progress"]), 0.0), 1.0),
@@ -830,14 +1283,16 @@ class JobManager:
         now = time.monotonic()
         with self._lock:
             late = [w for w in self._workers if w.job_id is not None
-                    and w.cancel_at is not None and now - w.cancel_at > self.cancel_grace_s]
+                    and w.cancel_at is not None and now - w.cancel_at > w.grace]
         for w in late:
             w.process.terminate()  # its sentinel fires; _on_death marks the job cancelled
 
     def _shutdown_workers(self) -> None:
         with self._lock:
             workers = list(self._workers)
-        deadline = time.monotonic() + 5.0
+        # a study closes its Dask cluster when cancelled: give it longer than a run
+        studies = any(w.job_id is not None and w.grace > self.cancel_grace_s for w in workers)
+        deadline = time.monotonic() + (20.0 if studies else 5.0)
         # running jobs were asked to cancel: let them close their files
         for w in workers:
             while w.job_id is not None and w.process.is_alive() and \

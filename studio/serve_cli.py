@@ -2,6 +2,7 @@
 
     brush-studio serve --headless [--host 127.0.0.1] [--port 8000] [--workers N]
                        [--data DIR] [--token TOKEN] [--cors ORIGIN ...]
+                       [--scheduler tcp://HOST:PORT]   (where study jobs run their runs)
 
 Binds 127.0.0.1 unless told otherwise; binding another address without a token prints a
 warning. The token may also come from the environment (``BRUSH_STUDIO_TOKEN``) so that it
@@ -45,6 +46,9 @@ def register(subparsers) -> None:
                    help=f"port (default {DEFAULT_PORT})")
     s.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes running jobs at once (default: one per core)")
+    s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="Dask scheduler that study jobs run their simulations on (default: "
+                        "each study job starts one local Dask worker)")
     s.add_argument("--data", default=None, metavar="DIR",
                    help=f"folder for the job database, results and meshes (default "
                         f"$BRUSH_STUDIO_DATA or ./{DEFAULT_DATA})")
@@ -82,6 +86,9 @@ def _cmd_serve(args) -> int:
         if not getattr(args, name) > 0:
             err(f"--{name.replace('_', '-')} must be > 0")
             return EXIT_BAD_INPUT
+    if args.scheduler is not None and "://" not in args.scheduler:
+        err(f"--scheduler = {args.scheduler!r}: expected an address like tcp://HOST:PORT")
+        return EXIT_BAD_INPUT
     if args.max_triangles < 1:
         err("--max-triangles must be >= 1")
         return EXIT_BAD_INPUT
@@ -97,7 +104,8 @@ def _cmd_serve(args) -> int:
     from .server import create_app
 
     try:
-        jobs = JobManager(data, workers=args.workers, max_triangles=args.max_triangles)
+        jobs = JobManager(data, workers=args.workers, max_triangles=args.max_triangles,
+                          scheduler=args.scheduler)
     except (RuntimeError, OSError, ValueError) as exc:
         err(f"error: {exc}")
         return EXIT_FAILED

@@ -1,0 +1,358 @@
+"""The studio's Studies tab: start a study as a job and look at what it wrote.
+
+The form offers the studies people start from the studio (:data:`FORMS`: wedge, spin,
+refinement, convergence) with a few key options each, plus an "other options" JSON field for
+the rest (any option of the study's command, docs/studies.md). Start submits the study through
+the same :class:`studio.jobs.JobManager` as the HTTP API (``submit_study``: the study runs in
+a worker process, its files under ``DATA/runs/<id>/study/``). When it has finished, the tab
+shows its PNG plots as images, a convergence study's table (markdown) and log-log error
+against wall time (plotly, from ``studio.convergence.load_convergence``), and lists its files
+for download.
+
+The pure helpers (:func:`form_options`, :func:`convergence_markdown`,
+:func:`convergence_figure`, :func:`png_array`) are what the tests check without a browser.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Optional
+
+#: study -> its form fields: (option name, kind, default, label). kind: preset | number |
+#: int | text | bool. The defaults are small enough to finish in seconds to a minute.
+FORMS: dict[str, list[tuple[str, str, Any, str]]] = {
+    "wedge": [("preset", "preset", "wedge_60", "preset"),
+              ("depth_mm", "number", 2.0, "depth [mm]"),
+              ("nodes", "int", 3, "nodes per bristle"),
+              ("no_unload", "bool", False, "loading only")],
+    "spin": [("cubes", "text", "20", "cube edges [mm]"),
+             ("configs", "text", "1", "brush configurations"),
+             ("n_nodes", "int", 4, "nodes per bristle"),
+             ("duration", "number", 0.2, "duration per run [s]"),
+             ("random_seeds", "int", 0, "random-tip runs")],
+    "refinement": [("preset", "preset", "wedge_60", "preset"),
+                   ("depth_mm", "number", 2.0, "depth [mm]"),
+                   ("levels", "text", "3,4", "nodes per bristle (levels)")],
+    "convergence": [("scene", "preset", "rod_weight_release", "scene preset"),
+                    ("quantity", "text", "tip_deflection", "quantity"),
+                    ("ladder", "text", "n_nodes=3,5,9", "ladder"),
+                    ("dt_factor", "text", "", "dt factors (optional)")],
+}
+STUDY_NAMES = tuple(FORMS)
+MAX_IMAGES = 6  # PNG plots shown for one study
+
+
+class FormError(ValueError):
+    """A form value that cannot be an option (shown beside the Start button)."""
+
+
+def form_options(study: str, values: dict, extra: str = "") -> dict:
+    """The options dict of ``study`` from the form's ``values`` (option name -> widget value)
+    and the "other options" JSON text ``extra`` (an object; its keys override the form's).
+    Empty text fields are left out (the study's default applies); a false flag too."""
+    if study not in FORMS:
+        raise FormError(f"unknown study {study!r}; one of {list(FORMS)}")
+    out: dict = {}
+    for name, kind, _default, label in FORMS[study]:
+        if name not in values:
+            continue
+        v = values[name]
+        if kind == "bool":
+            if v:
+                out[name] = True
+        elif kind in ("number", "int"):
+            if v is None:
+                continue
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise FormError(f"{label}: {v!r} is not a number") from None
+            if not math.isfinite(x):
+                raise FormError(f"{label}: must be finite")
+            if kind == "int":
+                if x != int(x):
+                    raise FormError(f"{label}: {v!r} must be a whole number")
+                x = int(x)
+            out[name] = x
+        else:
+            text = str(v).strip()
+            if text:
+                out[name] = text
+    extra = (extra or "").strip()
+    if extra:
+        try:
+            more = json.loads(extra)
+        except ValueError as exc:
+            raise FormError(f"other options: not JSON ({exc})") from None
+        if not isinstance(more, dict):
+            raise FormError('other options: must be a JSON object, e.g. {"max_hold": 0.5}')
+        out.update(more)
+    return out
+
+
+def convergence_markdown(table) -> str:
+    """A convergence study's table (``studio.convergence.ConvergenceTable``) as markdown:
+    one row per level, then the reference, the observed order and the cheapest levels."""
+    def num(x, fmt):
+        return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) \
+            else format(x, fmt)
+
+    head = f"**{table.quantity} [{table.unit}]** of `{table.scene_name}`"
+    rows = ["| level | n_nodes | dt [s] | quantity | error | wall [s] | status |",
+            "|---:|---:|---:|---:|---:|---:|---|"]
+    for r in table.rows:
+        rows.append(f"| {r['level']} | {'' if r.get('n_nodes') is None else r['n_nodes']} | "
+                    f"{'auto' if r.get('dt') is None else format(r['dt'], '.4g')} | "
+                    f"{num(r.get('quantity'), '.6g')} | {num(r.get('error'), '+.3e')} | "
+                    f"{num(r.get('wall_s'), '.2f')} | {r.get('status', '')} |")
+    ref = "none" if table.reference is None else f"{table.reference:.8g} {table.unit}"
+    notes = [f"reference: {ref} ({table.reference_kind}: {table.reference_note})"]
+    orders = ", ".join(num(o, ".3g") for o in table.observed_orders)
+    if orders:
+        notes.append(f"observed order (h = {table.resolution}): {orders}; fit "
+                     f"{num(table.fitted_order, '.3g')}")
+    for tol, row in (table.cheapest or {}).items():
+        notes.append(f"cheapest within {100 * float(tol):g} %: " + (
+            "none" if row is None else f"level {row['level']} in {row['wall_s']:.2f} s"))
+    return "\n\n".join([head, "\n".join(rows)] + notes)
+
+
+def convergence_figure(table):
+    """Log-log |error| against wall time, one marker per level (plotly figure); levels with
+    no error (the reference level itself, failed levels) are left out."""
+    import plotly.graph_objects as go
+
+    xs, ys, labels = [], [], []
+    for r in table.rows:
+        e, w = r.get("error"), r.get("wall_s")
+        if e is None or w is None or not (math.isfinite(e) and math.isfinite(w)) \
+                or e == 0 or w <= 0:
+            continue
+        xs.append(w)
+        ys.append(abs(e))
+        labels.append(f"level {r['level']}" + (f", n={r['n_nodes']}" if r.get("n_nodes")
+                                              else ""))
+    fig = go.Figure()
+    fig.add_scatter(x=xs, y=ys, mode="lines+markers+text", text=labels,
+                    textposition="top center", name=table.quantity)
+    fig.update_layout(title=dict(text=f"{table.quantity}: error against wall time",
+                                 font=dict(size=13)),
+                      xaxis=dict(type="log", title="wall time [s]"),
+                      yaxis=dict(type="log", title="|relative error|"),
+                      margin=dict(l=50, r=10, t=30, b=40), height=300, showlegend=False)
+    return fig
+
+
+def png_array(path: Path, max_side: int = 900):
+    """A PNG file as an RGB uint8 array (downscaled so its longer side is at most
+    ``max_side`` pixels)."""
+    import numpy as np
+    from PIL import Image
+
+    with Image.open(path) as im:
+        im = im.convert("RGB")
+        scale = max(im.size) / max_side
+        if scale > 1:
+            im = im.resize((int(im.size[0] / scale), int(im.size[1] / scale)))
+        return np.asarray(im, dtype=np.uint8)
+
+
+class StudiesTab:
+    """The Studies tab's widgets and behaviour (built inside ``tab``; ``poll`` is called by
+    the studio's polling thread)."""
+
+    def __init__(self, gui, tab, jobs, preset_names: list[str], md_escape):
+        self.gui = gui
+        self.jobs = jobs
+        self.esc = md_escape
+        self.active: Optional[str] = None     # the study started here and followed
+        self.shown: Optional[str] = None      # the study whose results are shown
+        self.shown_status: Optional[str] = None
+        self.images: list = []
+        self.plot = None
+        self.last_error: Optional[str] = None
+        self._list_md = ""
+        self.fields: dict[str, dict[str, Any]] = {}
+        presets = list(preset_names) or ["wedge_60"]
+        with tab:
+            self.dd_study = gui.add_dropdown("study", STUDY_NAMES, initial_value="wedge")
+            self.dd_study.on_update(lambda e: self._show_form())
+            for study, spec in FORMS.items():
+                handles = {}
+                for name, kind, default, label in spec:
+                    if kind == "preset":
+                        opts = tuple(presets if default in presets else [default] + presets)
+                        h = gui.add_dropdown(label, opts, initial_value=default)
+                    elif kind == "number":
+                        h = gui.add_number(label, float(default))
+                    elif kind == "int":
+                        h = gui.add_number(label, int(default), step=1)
+                    elif kind == "bool":
+                        h = gui.add_checkbox(label, bool(default))
+                    else:
+                        h = gui.add_text(label, str(default))
+                    handles[name] = h
+                self.fields[study] = handles
+            self.tx_extra = gui.add_text("other options (JSON)", "")
+            self.bt_start = gui.add_button("Start study", color="green")
+            self.bt_start.on_click(lambda e: self.start())
+            self.bt_cancel = gui.add_button("Cancel study", color="red", disabled=True)
+            self.bt_cancel.on_click(lambda e: self.cancel())
+            self.progress = gui.add_progress_bar(0.0, animated=False)
+            self.md_status = gui.add_markdown("No study started yet.")
+            with gui.add_folder("Studies", expand_by_default=False):
+                self.md_list = gui.add_markdown("No studies yet.")
+                self.dd_list = gui.add_dropdown("study job", ("(none)",))
+                self.bt_show = gui.add_button("Show selected study")
+                self.bt_show.on_click(lambda e: self._show_selected())
+            with gui.add_folder("Study results", expand_by_default=True):
+                self.md_result = gui.add_markdown("Finished studies show here.")
+                self.dd_file = gui.add_dropdown("file", ("(none)",), disabled=True)
+                self.bt_download = gui.add_button("Download file", disabled=True)
+                self.bt_download.on_click(self._on_download)
+                self.md_table = gui.add_markdown("", visible=False)
+                self.results_folder = gui.add_folder("Plots", expand_by_default=True)
+        self._show_form()
+
+    # ----------------------------------------------------------------- form
+    def _show_form(self) -> None:
+        study = self.dd_study.value
+        for s, handles in self.fields.items():
+            for h in handles.values():
+                h.visible = s == study
+
+    def options(self) -> dict:
+        study = self.dd_study.value
+        values = {name: h.value for name, h in self.fields[study].items()}
+        return form_options(study, values, self.tx_extra.value)
+
+    def start(self) -> Optional[str]:
+        """Submit the form's study; returns the job id (None if refused)."""
+        from .jobs import StudyOptionError
+
+        study = self.dd_study.value
+        try:
+            options = self.options()
+            job_id = self.jobs.submit_study(study, options)
+        except (FormError, StudyOptionError) as exc:
+            self.last_error = str(exc)
+            self.md_status.content = f"**Refused:** {self.esc(str(exc))}"
+            return None
+        except Exception as exc:  # keep the studio alive; say why
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            self.md_status.content = f"Could not start: {self.esc(self.last_error)}"
+            return None
+        self.last_error = None
+        self.active = job_id
+        self.progress.value = 0.0
+        self.bt_cancel.disabled = False
+        self.md_status.content = f"Queued {study} study `{job_id}`."
+        return job_id
+
+    def cancel(self) -> None:
+        if self.active is not None:
+            self.jobs.cancel(self.active, wait=0.0)
+
+    def _show_selected(self) -> None:
+        v = self.dd_list.value
+        if v and v != "(none)":
+            self.show(v.split(" ", 1)[0])
+
+    # ----------------------------------------------------------------- polling
+    def poll(self) -> None:
+        studies = self.jobs.list(limit=50, kind="study")
+        rows = ["| study | status | progress | message |", "|---|---|---|---|"]
+        for j in studies:
+            msg = j.error.splitlines()[0] if j.error else (j.message or "")
+            rows.append(f"| `{j.id}` {self.esc(j.name)} | {j.status} | "
+                        f"{100 * (j.progress or 0):.0f} % | {self.esc(msg)[:120]} |")
+        md = "\n".join(rows) if studies else "No studies yet."
+        if md != self._list_md:
+            self._list_md = md
+            self.md_list.content = md
+            current = self.dd_list.value
+            options = tuple(f"{j.id} {j.name} ({j.status})" for j in studies) or ("(none)",)
+            self.dd_list.options = options
+            for o in options:
+                if current and o.split(" ", 1)[0] == current.split(" ", 1)[0]:
+                    self.dd_list.value = o
+        job = self.active
+        if job is None:
+            return
+        info = self.jobs.get(job)
+        self.progress.value = 100.0 * float(info.progress or 0.0)
+        if info.status == "queued":
+            self.md_status.content = f"Study `{job}` queued (waiting for a worker)."
+        elif info.status == "running":
+            self.md_status.content = (f"Study `{job}` running: {self.esc(info.message or '')}"
+                                      f" ({len(info.files)} files so far)")
+        else:
+            self.active = None
+            self.bt_cancel.disabled = True
+            self.md_status.content = (f"Study `{job}` **{info.status}**" + (
+                f": {self.esc(info.error.splitlines()[0])}" if info.error else "."))
+            self.show(job)
+
+    # ----------------------------------------------------------------- results
+    def show(self, job_id: str) -> None:
+        """Show a study's plots, table and files."""
+        info = self.jobs.get(job_id)
+        folder = self.jobs.study_dir(job_id)
+        files = list(info.files)
+        self.shown, self.shown_status = job_id, info.status
+        head = f"**{self.esc(info.name)}** (`{job_id}`, {info.status}"
+        if info.summary.get("wall_s") is not None:
+            head += f", {info.summary['wall_s']:.1f} s"
+        head += f"): {len(files)} files"
+        if info.error:
+            head += f"\n\n{self.esc(info.error.splitlines()[0])}"
+        self.md_result.content = head
+        self.dd_file.options = tuple(files) or ("(none)",)
+        self.dd_file.disabled = self.bt_download.disabled = not files
+        for h in self.images:
+            h.remove()
+        self.images = []
+        if self.plot is not None:
+            self.plot.remove()
+            self.plot = None
+        self.md_table.visible = False
+        if info.study == "convergence" and "convergence.json" in files:
+            try:
+                from .convergence import load_convergence
+
+                table = load_convergence(folder)
+                self.md_table.content = convergence_markdown(table)
+                self.md_table.visible = True
+                with self.results_folder:
+                    self.plot = self.gui.add_plotly(convergence_figure(table), aspect=1.5)
+            except (OSError, ValueError, TypeError, KeyError) as exc:
+                self.md_table.content = f"cannot read the convergence table: {exc}"
+                self.md_table.visible = True
+        pngs = [f for f in files if f.lower().endswith(".png")][:MAX_IMAGES]
+        with self.results_folder:
+            for name in pngs:
+                try:
+                    self.images.append(self.gui.add_image(png_array(folder / name),
+                                                          label=name, format="png"))
+                except (OSError, ValueError) as exc:
+                    self.images.append(self.gui.add_markdown(f"{name}: cannot show ({exc})"))
+
+    def _on_download(self, event) -> None:
+        if event.client is None or self.shown is None:
+            return
+        name = self.dd_file.value
+        try:
+            path = self.jobs.study_file(self.shown, name)
+        except KeyError:
+            return
+        event.client.send_file_download(Path(name).name, path.read_bytes(),
+                                        save_immediately=True)
+
+    def state(self) -> dict:
+        """What the tab shows (for /studio/state and the tests)."""
+        return {"study": self.dd_study.value, "active": self.active, "shown": self.shown,
+                "shown_status": self.shown_status, "images": len(self.images),
+                "plot": self.plot is not None, "table": bool(self.md_table.visible),
+                "files": list(self.dd_file.options) if self.shown else [],
+                "error": self.last_error}

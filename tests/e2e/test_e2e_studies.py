@@ -1,0 +1,117 @@
+"""The studio's Studies tab in a real browser: a bad option is refused on the page, a tiny
+wedge study started from the tab finishes and its plot appears; a convergence study shows
+its table and log-log plot (slow). Screenshots under tests/e2e/artifacts/."""
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from conftest import click, wait_text
+
+
+def _set_text(page, label: str, text: str) -> None:
+    # viser's text inputs are not tied to their <label> (no id): the input after the label
+    field = page.locator(f'xpath=//label[normalize-space()="{label}"]/following::input[1]')
+    field.fill(text, force=True)
+    field.press("Tab")
+
+
+def _select(page, label: str, value: str) -> None:
+    """Choose ``value`` in viser's dropdown labelled ``label`` (a combobox input)."""
+    box = page.get_by_label(label, exact=True)
+    box.click(force=True)
+    page.get_by_role("option", name=value, exact=True).click(force=True)
+
+
+def _wait_studies(studio, predicate, timeout: float, what: str) -> dict:
+    return studio.wait_state(lambda s: s["studies"] is not None and predicate(s["studies"]),
+                             timeout=timeout, what=what)["studies"]
+
+
+def _typed(studio, page, label: str, text: str, accepted, what: str) -> None:
+    """Type into a field until the server has the value (retyped once on a busy page)."""
+    for attempt in range(3):
+        _set_text(page, label, text)
+        try:
+            studio.wait_state(accepted, timeout=10, what=what)
+            return
+        except AssertionError:
+            if attempt == 2:
+                raise
+
+
+def test_e2e_studies_tab_refuses_a_bad_option(studio, page, shot):
+    click(page, "Studies", role="tab")
+    wait_text(page, "Start study")
+    assert studio.state()["studies"]["study"] == "wedge"
+    # an option the wedge study does not have, through the "other options" JSON field
+    for attempt in range(3):
+        _set_text(page, "other options (JSON)", '{"depth": 3}')
+        page.wait_for_timeout(500)
+        click(page, "Start study")
+        try:
+            st = _wait_studies(studio, lambda s: s["error"] is not None, 10, "a refusal")
+            break
+        except AssertionError:
+            if attempt == 2:
+                raise
+    assert "unknown option" in st["error"] and st["active"] is None
+    wait_text(page, "Refused")
+    wait_text(page, "unknown option")
+    shot(page, "refused-option")
+    # a client file path where a preset name belongs is refused the same way
+    _set_text(page, "other options (JSON)", '{"preset": "/etc/passwd"}')
+    page.wait_for_timeout(500)
+    click(page, "Start study")
+    wait_text(page, "not a preset name")
+    assert studio.get("/api/studies") == []  # nothing was queued
+    _set_text(page, "other options (JSON)", "")
+
+
+def test_e2e_wedge_study_from_the_tab_shows_its_plot(studio, page, shot, artifacts_dir):
+    click(page, "Studies", role="tab")
+    wait_text(page, "Start study")
+    _typed(studio, page, "other options (JSON)", "", lambda s: True, "cleared")
+    page.wait_for_timeout(500)
+    t0 = time.monotonic()
+    click(page, "Start study")  # the form's defaults: wedge_60, 2 mm, 3 nodes per bristle
+    st = _wait_studies(studio, lambda s: s["active"] is not None or s["shown"] is not None,
+                       20, "a started study")
+    st = _wait_studies(studio, lambda s: s["shown_status"] is not None and s["images"] > 0,
+                       400, "the study's plot shown")
+    wall = time.monotonic() - t0
+    assert st["shown_status"] == "completed", st
+    assert "force_depth.png" in st["files"] and "force_depth.csv" in st["files"]
+    # the plot is in the page: viser draws a GUI image as an <img>
+    deadline = time.monotonic() + 30
+    while page.locator("img").count() == 0:
+        assert time.monotonic() < deadline, "no image element appeared"
+        time.sleep(0.3)
+    wait_text(page, "completed")
+    job = studio.get(f"/api/studies/{st['shown']}")
+    assert job["kind"] == "study" and job["options"]["preset"] == "wedge_60"
+    shot(page, "wedge-study-plot")
+    print(f"wedge study from the Studies tab: {wall:.1f} s to its plot")
+    # its files download from the tab
+    with page.expect_download(timeout=60_000) as dl:
+        click(page, "Download file")
+    saved = artifacts_dir / "study_download"
+    dl.value.save_as(str(saved))
+    assert saved.stat().st_size > 0
+
+
+@pytest.mark.slow  # three rod runs: ~35 s on an idle 2-core machine, minutes when busy
+def test_e2e_convergence_study_shows_table_and_plot(studio, page, shot):
+    click(page, "Studies", role="tab")
+    wait_text(page, "Start study")
+    _select(page, "study", "convergence")
+    studio.wait_state(lambda s: s["studies"]["study"] == "convergence", what="convergence")
+    page.wait_for_timeout(500)
+    click(page, "Start study")
+    st = _wait_studies(studio, lambda s: s["shown_status"] is not None and s["plot"]
+                       and s["table"], 600, "the convergence table and plot")
+    assert st["shown_status"] == "completed"
+    wait_text(page, "error against wall time")  # the plot's title
+    wait_text(page, "tip_deflection")
+    shot(page, "convergence-table-plot")
