@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Optional
 
 from . import __version__
+from .jsonable import jsonable
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -53,31 +54,11 @@ def _print_scene_error(exc, what: str) -> None:
         _err(f"  {p}")
 
 
-def _jsonable(value):
-    """Strict JSON: non-finite floats as the strings "nan", "inf", "-inf" (as in result
-    files), anything unknown as its str()."""
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return value
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if value is None or isinstance(value, (str, int, bool)):
-        return value
-    if hasattr(value, "item"):  # numpy scalars
-        return _jsonable(value.item())
-    return str(value)
-
-
 def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
+    path.write_text(json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n")
 
 
 def _fmt_seconds(s) -> str:

@@ -39,6 +39,13 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .jsonable import jsonable as _to_json
+
+
+def _json_null(value):
+    return _to_json(value, nonfinite="null")
+
+
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
 CSV_COLUMNS = ("level", "n_nodes", "dt", "quantity", "error", "wall_s")
 TOLERANCES = (0.01, 0.05)
@@ -782,20 +789,6 @@ def run_level(scene, h5_path: Path, params: dict) -> dict:
     return summary
 
 
-def _jsonable(value):
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
 def _run_serial(specs, out_dir: Path, progress: bool) -> list[dict]:
     """Run the levels one after another in this process (no Dask): each writes
     out_dir/runs/<run_id>.h5 and, last, <run_id>.json, like the studies' runner; a finished
@@ -823,7 +816,7 @@ def _run_serial(specs, out_dir: Path, progress: bool) -> list[dict]:
         except Exception as exc:  # a level that fails is reported; the others go on
             summary, status, error = {}, "failed", f"{type(exc).__name__}: {exc}"
         record = {"run_id": spec.run_id, "params": spec.params, "status": status,
-                  "summary": _jsonable(summary), "error": error, "h5": str(h5),
+                  "summary": _json_null(summary), "error": error, "h5": str(h5),
                   "wall_s": time.perf_counter() - t0, "skipped": False}
         tmp = meta.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(record, indent=1))
@@ -868,7 +861,7 @@ class ConvergenceTable:
     measured_at: str = ""
 
     def to_dict(self) -> dict:
-        return _jsonable(asdict(self))
+        return _json_null(asdict(self))
 
     def text(self) -> str:
         """A printable table and the analysis below it."""

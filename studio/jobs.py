@@ -62,6 +62,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Optional, Union
 
+from .jsonable import jsonable as _to_json
+
 STATUSES = ("queued", "running", "completed", "stopped", "failed", "cancelled")
 FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
 MESH_FORMATS = ("stl", "obj", "ply")
@@ -81,19 +83,8 @@ def cpu_count() -> int:
 
 
 def jsonable(value: Any) -> Any:
-    """Strict-JSON copy: non-finite floats become None, numpy scalars Python numbers,
-    anything unknown its str()."""
-    if isinstance(value, bool) or value is None or isinstance(value, (str, int)):
-        return value
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if hasattr(value, "tolist"):  # numpy arrays and scalars
-        return jsonable(value.tolist())
-    return str(value)
+    """Strict JSON for API answers: non-finite floats become null."""
+    return _to_json(value, nonfinite="null")
 
 
 # ----------------------------------------------------------------------------- job info

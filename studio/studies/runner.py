@@ -33,7 +33,6 @@ import argparse
 import hashlib
 import importlib
 import json
-import math
 import os
 import sys
 import time
@@ -41,6 +40,8 @@ import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
+
+from ..jsonable import jsonable  # noqa: F401  (studies import it from here)
 
 DEFAULT_TASK = "studio.studies.runner:plain_run"
 DONE_STATUSES = ("completed", "stopped")
@@ -97,28 +98,6 @@ class RunOutcome:
 
 
 # ----------------------------------------------------------------------------- JSON helpers
-def jsonable(value: Any) -> Any:
-    """Strict-JSON version of ``value``: non-finite floats as "nan"/"inf"/"-inf" (as in
-    result files), numpy scalars and arrays as Python numbers and lists, paths as text."""
-    if isinstance(value, bool) or value is None or isinstance(value, (str, int)):
-        return value
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return value
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if isinstance(value, Path):
-        return str(value)
-    if hasattr(value, "tolist"):  # numpy arrays and scalars
-        return jsonable(value.tolist())
-    return str(value)
-
-
 def write_json_atomic(path: Path, data: Any) -> None:
     """Write ``data`` as JSON to ``path`` via a temporary file and ``os.replace``: the path
     holds either the old or the new complete file, never a partial one."""

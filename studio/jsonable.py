@@ -1,0 +1,30 @@
+"""Strict JSON for summaries, API answers and study files: one conversion for every writer."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+
+def jsonable(value: Any, nonfinite: str = "text") -> Any:
+    """A strict-JSON copy of ``value``: dict keys as text, tuples as lists, numpy arrays and
+    scalars as Python lists and numbers, paths as text, anything else unknown as its str().
+    Non-finite floats become the strings "nan", "inf", "-inf" (``nonfinite="text"``, as
+    result files write them) or null (``nonfinite="null"``, for the HTTP API)."""
+    if isinstance(value, bool) or value is None or isinstance(value, (str, int)):
+        return value
+    if isinstance(value, float):
+        if math.isfinite(value):
+            return value
+        if nonfinite == "null":
+            return None
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, dict):
+        return {str(k): jsonable(v, nonfinite) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v, nonfinite) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        return jsonable(value.tolist(), nonfinite)
+    return str(value)
