@@ -561,12 +561,7 @@ def add_parser(study_subparsers) -> None:
 
 
 def _cmd_rod(args) -> int:
-    from .runner import (
-        check_common_options,
-        failures_text,
-        run_many_from_args,
-        write_outcomes,
-    )
+    from .runner import check_common_options, failures_text, first_problem, run_study
 
     problem = check_common_options(args)
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
@@ -590,18 +585,14 @@ def _cmd_rod(args) -> int:
               (args.settle_periods > 0 and args.measure_periods >= 1,
                "--settle-periods must be > 0 and --measure-periods >= 1"),
               (args.min_time >= 0, "--min-time must be >= 0")]
-    for ok, msg in checks:
-        if not ok and problem is None:
-            problem = msg
+    problem = first_problem(problem, checks)
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    import engine
-
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    try:
-        specs = build_specs([c for c in cases if c in CASES], n_nodes=args.n_nodes,
+    code, outcomes = run_study(
+        lambda: build_specs([c for c in cases if c in CASES], n_nodes=args.n_nodes,
                             free_duration=args.free_duration,
                             record_interval=args.record_interval,
                             response_frequencies=freqs if "response" in cases else [],
@@ -609,23 +600,10 @@ def _cmd_rod(args) -> int:
                             response_force=args.response_force,
                             friction_angle=math.radians(args.friction_angle),
                             settle_periods=args.settle_periods,
-                            measure_periods=args.measure_periods, min_time=args.min_time)
-        for s in specs:  # every scene valid before anything runs
-            engine.parse_scene(s.scene)
-    except engine.SceneError as exc:
-        print("error: invalid scene: " + "; ".join(str(p) for p in exc.problems),
-              file=sys.stderr)
-        return 2
-    except KeyError as exc:  # a missing preset
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    try:
-        outcomes = run_many_from_args(specs, out, args, desc="rod runs")
-    except KeyboardInterrupt:
-        print("cancelled: finished runs are kept; run the same command again to resume",
-              file=sys.stderr)
-        return 130
-    write_outcomes(out / "outcomes.json", outcomes)
+                            measure_periods=args.measure_periods, min_time=args.min_time),
+        out, args, desc="rod runs")
+    if code is not None:
+        return code
     analytic = cantilever_frequencies()
     doc = write_outputs(out, outcomes, analytic)
     print("Euler-Bernoulli: " + ", ".join(f"{f:.3f}" for f in analytic) + " Hz")

@@ -473,3 +473,41 @@ def run_many_from_args(specs: Sequence[RunSpec], out_dir, args, desc: str = "run
     """``run_many`` with the common options of ``args``."""
     return run_many(specs, out_dir, scheduler=args.scheduler, n_workers=args.workers,
                     progress=not args.no_progress, desc=desc)
+
+
+def first_problem(problem: Optional[str], checks) -> Optional[str]:
+    """``problem`` if set, else the message of the first ``(ok, message)`` check that fails."""
+    for ok, message in checks:
+        if problem is not None:
+            break
+        if not ok:
+            problem = message
+    return problem
+
+
+def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
+              desc: str) -> tuple[Optional[int], list[RunOutcome]]:
+    """The common body of a study command: build the specs (a missing preset or an invalid
+    scene is bad input, exit 2, before anything runs), run them with the common options,
+    write ``outcomes.json``. Returns (exit code to return now, or None; the outcomes)."""
+    import engine
+
+    try:
+        specs = make_specs()
+        for s in specs:  # every scene valid before anything runs
+            engine.parse_scene(s.scene)
+    except engine.SceneError as exc:
+        print("error: invalid scene: " + "; ".join(str(p) for p in exc.problems),
+              file=sys.stderr)
+        return 2, []
+    except KeyError as exc:  # a missing preset
+        print(f"error: {exc}", file=sys.stderr)
+        return 2, []
+    try:
+        outcomes = run_many_from_args(specs, out_dir, args, desc=desc)
+    except KeyboardInterrupt:
+        print("cancelled: finished runs are kept; run the same command again to resume",
+              file=sys.stderr)
+        return 130, []
+    write_outcomes(out_dir / "outcomes.json", outcomes)
+    return None, outcomes

@@ -539,12 +539,7 @@ def add_parser(study_subparsers) -> None:
 
 
 def _cmd_spin(args) -> int:
-    from .runner import (
-        check_common_options,
-        failures_text,
-        run_many_from_args,
-        write_outcomes,
-    )
+    from .runner import check_common_options, failures_text, first_problem, run_study
 
     problem = check_common_options(args)
     try:
@@ -566,38 +561,21 @@ def _cmd_spin(args) -> int:
         (args.tip_variance > 0, "--tip-variance must be > 0"),
         (args.record_interval is None or args.record_interval > 0,
          "--record-interval must be > 0")]
-    for good, msg in checks:
-        if not good and problem is None:
-            problem = msg
+    problem = first_problem(problem, checks)
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    import engine
-
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    try:
-        specs = build_specs(cubes, configs, n_nodes=args.n_nodes, omega0=args.omega0,
-                            duration=args.duration, grid=grid, random_seeds=args.random_seeds,
-                            random_cube=args.random_cube, random_config=args.random_config,
-                            tip_variance=args.tip_variance,
-                            record_interval=args.record_interval)
-        for s in specs:
-            engine.parse_scene(s.scene)
-    except engine.SceneError as exc:
-        print("error: invalid scene: " + "; ".join(str(p) for p in exc.problems),
-              file=sys.stderr)
-        return 2
-    except KeyError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    try:
-        outcomes = run_many_from_args(specs, out, args, desc="spin runs")
-    except KeyboardInterrupt:
-        print("cancelled: finished runs are kept; run the same command again to resume",
-              file=sys.stderr)
-        return 130
-    write_outcomes(out / "outcomes.json", outcomes)
+    code, outcomes = run_study(
+        lambda: build_specs(cubes, configs, n_nodes=args.n_nodes, omega0=args.omega0,
+                            duration=args.duration, grid=grid,
+                            random_seeds=args.random_seeds, random_cube=args.random_cube,
+                            random_config=args.random_config, tip_variance=args.tip_variance,
+                            record_interval=args.record_interval),
+        out, args, desc="spin runs")
+    if code is not None:
+        return code
     summary = write_outputs(out, outcomes)
     print(f"{'run':28s} {'rest time':>10s} {'contacts':>8s}  Δω range [rad/s]")
     for r in summary["runs"]:
