@@ -13,7 +13,7 @@ import numpy as np
 
 from . import meshes
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
-from .contact_law import restitution_damping_ratio
+from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
@@ -467,7 +467,7 @@ def build(scene: Scene) -> System:
     qn = np.asarray(qs, float).reshape(N, 4)
     rad = cat(rads, 0)
     nmass = cat(masses, 0)
-    ninertia = cat(inertias, 0)
+    ninertia = cat(inertias, 0) * scene.environment.rotational_inertia_scale
     nbristle = cat(node_bristle, 0, np.int64)
     bi = cat(bi_l, 0, np.int64)
     bj = cat(bj_l, 0, np.int64)
@@ -658,8 +658,10 @@ def build(scene: Scene) -> System:
 
     flags = Flags(bonds=B > 0, bond_damping=bond_damped, bristle_bristle=bb_needed,
                   bristle_body=bbody_needed, body_body=bodybody_needed,
-                  friction_bristle=fr_bb, friction_body=fr_body,
-                  friction_body_body=fr_bodybody, rigid_bodies=rigid, mounted_roots=mounted,
+                  friction_bristle=SLIP_EACH_STEP if fr_bb else NO_FRICTION,
+                  friction_body=SLIP_EACH_STEP if fr_body else NO_FRICTION,
+                  friction_body_body=SLIP_EACH_STEP if fr_bodybody else NO_FRICTION,
+                  rigid_bodies=rigid, mounted_roots=mounted,
                   gravity=has_gravity, loads=NL > 0 and len(load_nodes) > 0,
                   local_damping=alpha > 0, track_energy=track_energy,
                   check_every=CHECK_EVERY, time_every=TIME_EVERY)

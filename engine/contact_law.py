@@ -11,6 +11,13 @@ import math
 
 from numba import njit
 
+# values of a contact's ``friction`` switch
+NO_FRICTION = 0
+SLIP_EACH_STEP = 1   # Coulomb's cap is applied to the kept spring every step (the dynamics)
+SLIP_FROZEN = 2      # the kept spring is the uncapped trial since the last commit: the force
+                     # applied is capped, the slip is committed only by a SLIP_EACH_STEP step
+                     # (quasi-static increments: engine.quasistatic)
+
 
 def restitution_damping_ratio(e: float) -> float:
     """Damping ratio of a linear spring-dashpot that rebounds with restitution e."""
@@ -38,6 +45,12 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
     force kept from the last step (ignored unless ``friction``). Returns
     ``(Fx, Fy, Fz, ftx, fty, ftz, dissipated, stored)``: the total force on A, the new
     tangential force to keep, the energy dissipated this step and the elastic energy stored.
+
+    With ``friction == SLIP_FROZEN`` the kept force is the trial force, never capped: the
+    applied tangential force is the trial's return to Coulomb's cone, so within a
+    quasi-static increment it depends on the net tangential displacement only, not on the
+    path the relaxation took (a backward-Euler return mapping per increment); its slip is
+    counted as dissipated when a ``SLIP_EACH_STEP`` step commits it.
     """
     fn = kn * overlap
     vn = vx * nx + vy * ny + vz * nz
@@ -76,18 +89,24 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
         ftz -= kt * tvz * dt
         cap = mu * fn
         mag = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        ax = ftx
+        ay = fty
+        az = ftz
         if mag > cap:
             # slip: the spring's excess is dissipated by sliding (seed eq. 3.8)
-            diss += cap * (mag - cap) / kt
-            if mag > 0.0:
-                s = cap / mag
-                ftx *= s
-                fty *= s
-                ftz *= s
-        Fx += ftx
-        Fy += fty
-        Fz += ftz
-        stored += 0.5 * (ftx * ftx + fty * fty + ftz * ftz) / kt
+            s = cap / mag
+            ax *= s
+            ay *= s
+            az *= s
+            if friction != SLIP_FROZEN:
+                diss += cap * (mag - cap) / kt
+                ftx = ax
+                fty = ay
+                ftz = az
+        Fx += ax
+        Fy += ay
+        Fz += az
+        stored += 0.5 * (ax * ax + ay * ay + az * az) / kt
     else:
         ftx = 0.0
         fty = 0.0

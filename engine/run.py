@@ -393,18 +393,11 @@ def run(system: System, until: Optional[float] = None,
             to_record = rec_every - ((system.steps - steps0) % rec_every)
             n = min(to_record, total_steps - done, chunk_cap)
             c0 = _time.perf_counter()
-            code, did = advance(system.nodes, system.bonds, system.roots, system.bodies,
-                                system.pairs, system.body_pairs, system.loads, system.tables,
-                                system.flags, system.acc, system.err, system.stage_time, dt, n,
-                                system.limits)
+            did = _advance(system, n)
             elapsed = _time.perf_counter() - c0
             done += did
-            if code in (OVERFLOW_PAIRS, OVERFLOW_BODY):
-                lst = system.pairs if code == OVERFLOW_PAIRS else system.body_pairs
-                grow_lists(system, code, int(lst.n[1]))
+            if did < n:  # a neighbour list grew: go on
                 continue
-            if code != OK:
-                raise _instability(system, code)
             # aim for chunks of ~0.05-0.2 s of wall time
             if elapsed < 0.05 and did == n:
                 chunk_cap = min(chunk_cap * 2, 1 << 20)
@@ -457,6 +450,31 @@ def run(system: System, until: Optional[float] = None,
         error.result = result
         raise error
     return result
+
+
+def _advance(system: System, n: int) -> int:
+    """Up to ``n`` steps of the compiled loop; returns the steps done (fewer when a neighbour
+    list had to grow, which it then did). Raises :class:`InstabilityError` on a blow-up."""
+    code, did = advance(system.nodes, system.bonds, system.roots, system.bodies, system.pairs,
+                        system.body_pairs, system.loads, system.tables, system.flags,
+                        system.acc, system.err, system.stage_time, system.dt, n,
+                        system.limits)
+    if code in (OVERFLOW_PAIRS, OVERFLOW_BODY):
+        lst = system.pairs if code == OVERFLOW_PAIRS else system.body_pairs
+        grow_lists(system, code, int(lst.n[1]))
+        return did
+    if code != OK:
+        raise _instability(system, code)
+    return did
+
+
+def run_steps(system: System, n_steps: int) -> None:
+    """Advance ``system`` by exactly ``n_steps`` steps, recording nothing: for protocols that
+    read the live state between calls (:mod:`engine.quasistatic`). A blow-up raises
+    :class:`InstabilityError`, as in :func:`run`."""
+    done = 0
+    while done < n_steps:
+        done += _advance(system, n_steps - done)
 
 
 def _refresh_forces(system: System) -> None:

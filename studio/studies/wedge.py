@@ -51,12 +51,20 @@ from .runner import (RunSpec, add_common_options, check_common_options, failures
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
 TASK = "studio.studies.wedge:wedge_cycle"
 PROTOCOL_DEFAULTS = {
-    "window": 0.05,            # s, one hold window
-    "frames_per_window": 10,   # force samples per window
-    "threshold": 2e-5,         # N, absolute std threshold
+    "method": "quasi_static",  # or "dynamic": the seed's hold-until-steady windows
+    "window": 0.05,            # s, one hold window (dynamic)
+    "frames_per_window": 10,   # force samples per window (dynamic)
+    "threshold": 2e-5,         # N, absolute tolerance (std, or out-of-balance force)
     "rel_threshold": 0.005,    # fraction of the current force change
     "max_hold": 1.0,           # s, longest hold after one step
+    # quasi-static only (docs/studies.md): numerical settings that leave equilibria unchanged
+    "qs_local_damping": 0.7,
+    "qs_rotational_inertia_scale": 4.0,
+    "qs_checks_per_period": 40,  # balance checks per period of the slowest bristle
+    "qs_max_acceleration": 4.0,  # m/s^2, a_m of each increment's parabolic move
+    "qs_increments": 1,          # increments per step, each settled and its slip committed
 }
+METHODS = ("quasi_static", "dynamic")
 DEFAULT_PRESET = "wedge_60"
 
 
@@ -152,10 +160,20 @@ def make_protocol(scene: dict, *, body: str = "wedge", brush: Optional[str] = No
     elif brush not in brushes:
         raise StudyInputError(f"the scene has no brush {brush!r} (brushes: {brushes})")
     proto = dict(PROTOCOL_DEFAULTS)
+    unknown = set(overrides) - set(PROTOCOL_DEFAULTS)
+    if unknown:
+        raise StudyInputError(f"unknown protocol settings {sorted(unknown)}")
     proto.update({k: v for k, v in overrides.items() if v is not None})
-    for k in ("window", "threshold", "max_hold"):
+    if proto["method"] not in METHODS:
+        raise StudyInputError(f"method = {proto['method']!r}: one of {', '.join(METHODS)}")
+    for k in ("window", "threshold", "max_hold", "qs_checks_per_period",
+              "qs_max_acceleration", "qs_increments"):
         if not proto[k] > 0:
             raise StudyInputError(f"{k} = {proto[k]}: must be > 0")
+    if not 0 <= proto["qs_local_damping"] < 1:
+        raise StudyInputError(f"qs_local_damping = {proto['qs_local_damping']}: in [0, 1)")
+    if not proto["qs_rotational_inertia_scale"] >= 1:
+        raise StudyInputError("qs_rotational_inertia_scale must be >= 1")
     if proto["frames_per_window"] < 3:
         raise StudyInputError("frames_per_window must be >= 3 (a standard deviation)")
     proto.update(body=body, brush=brush, step=step, max_acceleration=a_m,
@@ -185,9 +203,14 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
     window, fpw = float(p["window"]), int(p["frames_per_window"])
     t_d = step_duration(step, a_m)
 
+    quasi_static = p.get("method", "dynamic") == "quasi_static"
     d = json.loads(scene.to_json())
     d["run"].update(stop=None, duration=1e4, record_interval=window / fpw,
                     channels=["nodes", "bodies", "root_force"])
+    if quasi_static:
+        d["environment"].update(
+            local_damping=max(p["qs_local_damping"], d["environment"].get("local_damping", 0)),
+            rotational_inertia_scale=p["qs_rotational_inertia_scale"])
     system = engine.build(engine.parse_scene(d))
     scratch = h5_path.parent / f".{h5_path.stem}.scratch"
     shutil.rmtree(scratch, ignore_errors=True)
@@ -195,8 +218,8 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
 
     series = {"time": [], "root_force_z": [], "wedge_depth": [], "wedge_force_z": []}
     rec = {k: [] for k in ("depth_m", "force_N", "phase", "root_force_z_N", "std_N",
-                           "hold_s", "converged", "time_s", "wedge_force_z_N",
-                           "measured_depth_m")}
+                           "out_of_balance_N", "kinetic_J", "hold_s", "converged", "time_s",
+                           "wedge_force_z_N", "measured_depth_m")}
     snapshots: list = []
     costs = {"steps": 0, "engine_wall_s": 0.0, "chunks": 0}
     state = {"p0": None, "last_nodes": None, "last_chunk": None}
@@ -241,12 +264,18 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
                 return dict(mean=mean, std=std, held=held, converged=converged,
                             depth=float(depth[-1]), wedge_force=float(np.mean(wf)))
 
+    if quasi_static:
+        advance, hold = _quasi_static_steps(system, p, brush, body, direction, series, costs,
+                                            state, n_stages)
+
     def record(target_depth: float, phase: str, h: dict, zero: float):
         rec["depth_m"].append(target_depth)
         rec["force_N"].append(h["mean"] - zero)
         rec["phase"].append(phase)
         rec["root_force_z_N"].append(h["mean"])
         rec["std_N"].append(h["std"])
+        rec["out_of_balance_N"].append(h.get("out_of_balance", float("nan")))
+        rec["kinetic_J"].append(h.get("kinetic", float("nan")))
         rec["hold_s"].append(h["held"])
         rec["converged"].append(h["converged"])
         rec["time_s"].append(system.time)
@@ -266,11 +295,19 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
         moves = [(k, "load", 1.0) for k in range(1, n_steps + 1)]
         if p["unload"]:
             moves += [(k, "unload", -1.0) for k in range(n_steps - 1, -1, -1)]
+        # the quasi-static method takes each step in ``qs_increments`` faster increments,
+        # each settled (and its slip committed) before the next
+        n_inc = int(p["qs_increments"]) if quasi_static else 1
+        a_inc = p["qs_max_acceleration"] if quasi_static else a_m
         for k, phase, sign in moves:
-            engine.prescribe_motion(system, body, {
-                "kind": "stepped_parabolic", "step": step, "n_steps": 1,
-                "max_acceleration": a_m, "direction": list(sign * direction)}, after="hold")
-            advance(t_d)
+            for j in range(n_inc):
+                engine.prescribe_motion(system, body, {
+                    "kind": "stepped_parabolic", "step": step / n_inc, "n_steps": 1,
+                    "max_acceleration": a_inc, "direction": list(sign * direction)},
+                    after="hold")
+                advance(step_duration(step / n_inc, a_inc))
+                if j < n_inc - 1:
+                    hold(stage, zero)
             h = hold(stage, zero)
             record(k * step, phase, h, zero)
             stage += 1
@@ -297,7 +334,81 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
             "engine_wall_s": costs["engine_wall_s"], "steps": costs["steps"],
             "sim_time_s": system.time, "dt": system.dt, "n_nodes": system.n_nodes,
             "step_duration_s": t_d,
-            "local_damping": scene.environment.local_damping}
+            "local_damping": system.scene.environment.local_damping,
+            "rotational_inertia_scale": system.scene.environment.rotational_inertia_scale,
+            "method": p.get("method", "dynamic"),
+            "max_out_of_balance_N": float(np.nanmax(rec["out_of_balance_N"]))
+            if quasi_static else None}
+
+
+def _quasi_static_steps(system, p: dict, brush: str, body: str, direction, series: dict,
+                        costs: dict, state: dict, n_stages: int):
+    """``advance(duration)`` and ``hold(stage, zero)`` of the quasi-static method: the live
+    state is read every ``check`` steps (about 1/``qs_checks_per_period`` of the slowest
+    bristle's period) for the series, and a hold ends when the out-of-balance force and the
+    kinetic energy are below the tolerance (:func:`engine.quasistatic.settle`)."""
+    import numpy as np
+
+    from engine.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
+                                    lowest_bristle_period, settle)
+    from engine.run import root_reactions, run_steps
+
+    dt = system.dt
+    freeze_slip(system)
+    k_body = system.body_names.index(body)
+    check = max(1, int(lowest_bristle_period(system.scene) / p["qs_checks_per_period"] / dt))
+    max_steps = max(1, int(round(p["max_hold"] / dt)))
+
+    def sample(system, _balance=None):
+        fz = float(root_reactions(system)[brush][0][2])
+        pos = system.bodies.pos[k_body]
+        if state["p0"] is None:
+            state["p0"] = pos.copy()
+        series["time"].append(np.array([system.time]))
+        series["root_force_z"].append(np.array([fz]))
+        series["wedge_depth"].append(np.array([(pos - state["p0"]) @ direction]))
+        series["wedge_force_z"].append(np.array([system.bodies.f[k_body, 2]]))
+        return fz
+
+    def timed_steps(n: int) -> None:
+        c0 = time.perf_counter()
+        run_steps(system, n)
+        costs["engine_wall_s"] += time.perf_counter() - c0
+        costs["steps"] += n
+
+    def advance(duration: float):
+        n = int(round(duration / dt))
+        while n > 0:
+            timed_steps(min(check, n))
+            n -= check
+            sample(system)
+
+    def hold(stage: int, zero: Optional[float]):
+        if state["p0"] is None:
+            sample(system)
+
+        def force_tolerance(system):
+            if zero is None:
+                return p["threshold"]
+            fz = float(root_reactions(system)[brush][0][2])
+            return max(p["threshold"], p["rel_threshold"] * abs(fz - zero))
+
+        steps0, c0 = costs["steps"], time.perf_counter()
+        res = settle(system, force_tolerance=force_tolerance,
+                     kinetic_tolerance=lambda f: kinetic_tolerance_for(system.scene, f),
+                     max_steps=max_steps, check_every=check, on_check=sample)
+        commit_slip(system)
+        costs["engine_wall_s"] += time.perf_counter() - c0
+        costs["steps"] = steps0 + res.steps + 1
+        report_progress(min((stage + 1) / n_stages, 1.0))
+        state["last_nodes"] = system.nodes.x.copy()
+        return dict(mean=float(root_reactions(system)[brush][0][2]), std=float("nan"),
+                    held=res.steps * dt, converged=res.converged,
+                    depth=float(series["wedge_depth"][-1][-1]),
+                    wedge_force=float(system.bodies.f[k_body, 2]),
+                    out_of_balance=res.balance.out_of_balance, kinetic=res.balance.kinetic)
+
+    return advance, hold
 
 
 def _write_run_h5(path: Path, scene, params, p, rec, series, snapshots, costs, system,
@@ -470,6 +581,11 @@ def add_protocol_options(p) -> None:
     g.add_argument("--max-hold", type=float, metavar="S",
                    help=f"longest hold after a step, s (default {PROTOCOL_DEFAULTS['max_hold']})")
     g.add_argument("--no-unload", action="store_true", help="loading only")
+    g.add_argument("--method", choices=[m.replace("_", "-") for m in METHODS],
+                   help="quasi-static (default): each hold ends when the out-of-balance force "
+                        "and kinetic energy are below the tolerance, with strong local damping "
+                        "and scaled rotational inertia; dynamic: the seed's protocol, windows "
+                        "of the scene's own dynamics until the force's spread is small")
 
 
 def protocol_from_args(scene: dict, args) -> dict:
@@ -478,7 +594,8 @@ def protocol_from_args(scene: dict, args) -> dict:
     return make_protocol(scene, depth=None if args.depth_mm is None else args.depth_mm * 1e-3,
                          max_acceleration=args.max_acceleration, unload=not args.no_unload,
                          window=args.window, threshold=args.threshold,
-                         rel_threshold=args.rel_threshold, max_hold=args.max_hold)
+                         rel_threshold=args.rel_threshold, max_hold=args.max_hold,
+                         method=None if args.method is None else args.method.replace("-", "_"))
 
 
 def _err(msg: str) -> None:
