@@ -53,20 +53,45 @@ def _reach(system):
     return np.maximum(nd.rad[bn.i], nd.rad[bn.j]) + float(system.limits[3])
 
 
+def _distance(points, mesh):
+    """Exact distance from each point to the mesh: trimesh's closest point on every triangle,
+    in mm (trimesh's absolute tolerances misplace closest points on mm-sized triangles in m)."""
+    points = 1e3 * np.asarray(points, float)
+    tri = 1e3 * mesh.triangles
+    pp = np.repeat(points, len(tri), axis=0)
+    q = trimesh.triangles.closest_point(np.tile(tri, (len(points), 1, 1)), pp)
+    return 1e-3 * np.linalg.norm(pp - q, axis=1).reshape(len(points), len(tri)).min(axis=1)
+
+
+def _inside(points, mesh):
+    """Inside a closed outward mesh: winding number 1 (the triangles' solid angles, Van
+    Oosterom & Strackee, sum to 4 pi), outside 0."""
+    a = mesh.triangles[None] - np.asarray(points, float)[:, None, None]   # (P, T, 3, 3)
+    la = np.linalg.norm(a, axis=-1)
+    a0, a1, a2 = a[..., 0, :], a[..., 1, :], a[..., 2, :]
+    num = np.einsum("ptk,ptk->pt", a0, np.cross(a1, a2))
+    den = (la[..., 0] * la[..., 1] * la[..., 2] + np.einsum("ptk,ptk->pt", a0, a1) * la[..., 2]
+           + np.einsum("ptk,ptk->pt", a1, a2) * la[..., 0]
+           + np.einsum("ptk,ptk->pt", a2, a0) * la[..., 1])
+    winding = 2.0 * np.arctan2(num, den).sum(axis=1) / (4.0 * np.pi)
+    return winding > 0.5
+
+
+def _signed_distance(points, mesh):
+    """Distance to the surface, positive inside (trimesh's convention)."""
+    return np.where(_inside(points, mesh), 1.0, -1.0) * _distance(points, mesh)
+
+
 def _sampled_distance(system, mesh, h=2e-5):
     """Per segment: min distance from points ``h`` apart along it to the world-frame ``mesh``
     (trimesh's exact point-triangle distance, all triangles). The true segment-mesh distance
     lies in [d - h/2, d] (distance is 1-Lipschitz along the segment)."""
     x, bn = system.nodes.x, system.bonds
-    tri = mesh.triangles
     out = np.empty(len(bn.i))
     for s, (i, j) in enumerate(zip(bn.i, bn.j)):
         n = int(np.ceil(np.linalg.norm(x[j] - x[i]) / h)) + 1
-        p = x[i] + np.linspace(0.0, 1.0, n)[:, None] * (x[j] - x[i])
-        pp = np.repeat(p, len(tri), axis=0)
-        tt = np.tile(tri, (n, 1, 1))
-        q = trimesh.triangles.closest_point(tt, pp)
-        out[s] = np.linalg.norm(pp - q, axis=1).min()
+        out[s] = _distance(x[i] + np.linspace(0.0, 1.0, n)[:, None] * (x[j] - x[i]),
+                           mesh).min()
     return out
 
 
@@ -98,7 +123,7 @@ def test_wedge_candidates_are_the_segments_within_the_skin():
     surely = set(np.flatnonzero(d < reach).tolist())
     maybe = set(np.flatnonzero(d - 0.5 * h < reach).tolist())
     # a segment inside the closed wedge without crossing its surface: an end inside
-    ends_in = mesh.contains(system.nodes.x[system.bonds.i])
+    ends_in = _inside(system.nodes.x[system.bonds.i], mesh)
     maybe |= set(np.flatnonzero(ends_in).tolist())
     assert len(surely) >= 10
     assert surely <= cand, f"near segments not listed: {sorted(surely - cand)}"
@@ -111,8 +136,8 @@ def test_segment_deep_inside_a_closed_body_is_listed_and_pushed_out(shape, tmp_p
     """Segment 1 (nodes at z = 8.25 and 16.5 mm) lies wholly inside a closed body, its nodes
     2 mm (box) or ~7.9 mm (icosphere, 5120 triangles, many grid cells) from the nearest face,
     farther than reach from every face. It must be a candidate, and the narrow phase must give
-    its nodes contacts with overlap r + depth (trimesh's signed distance, an independent
-    reference; tolerance 1e-9 relative: both are exact closest-point distances), which the
+    its nodes contacts with overlap r + depth (brute-force distance and winding number, an
+    independent reference; tolerance 1e-9 relative: both are exact closest-point distances), which the
     first step reports as a bristle-body overlap. Catches dropping the inside test (segment not
     listed) and a narrow phase that only sees faces within a node's radius (the old one: a
     node deeper than its radius had no contact at all and stayed inside)."""
@@ -133,7 +158,7 @@ def test_segment_deep_inside_a_closed_body_is_listed_and_pushed_out(shape, tmp_p
     x, rad = system.nodes.x, system.nodes.rad
     mesh = trimesh.Trimesh(bd.verts, bd.tris)  # the body-frame mesh, moved to the world
     mesh.apply_translation(bd.pos[0])
-    depth = trimesh.proximity.signed_distance(mesh, x[1:3])  # > 0 inside
+    depth = _signed_distance(x[1:3], mesh)  # > 0 inside
     reach = _reach(system)
     assert np.all(depth > reach[1])
     cand = _candidates(system)
@@ -149,9 +174,11 @@ def test_segment_deep_inside_a_closed_body_is_listed_and_pushed_out(shape, tmp_p
         node = system.bonds.i[seg]
         assert bl.ratio[slot] == pytest.approx((rad[node] + depth[seg - 1]) / rad[node],
                                                rel=1e-9)
-        # pushed out through the nearest face: the force on the node points away from it
-        towards = x[node] - mesh.nearest.on_surface(x[node:node + 1])[0][0]
-        assert np.dot(bl.fc[slot], towards) < 0.0
+        # pushed out through the nearest face: the force on the node points out of it
+        tri = mesh.triangles
+        q = trimesh.triangles.closest_point(tri, np.repeat(x[node:node + 1], len(tri), 0))
+        nearest = q[np.argmin(np.linalg.norm(q - x[node], axis=1))]
+        assert np.dot(bl.fc[slot], nearest - x[node]) > 0.0
 
 
 def _beside_wedge_scene(tmp_path, closed):
@@ -203,7 +230,7 @@ def test_nearest_triangle_and_inside_test_match_trimesh():
     rng = np.random.default_rng(1)
     pts = rng.normal(size=(400, 3))
     pts *= (rng.uniform(0.0, 0.02, 400) / np.linalg.norm(pts, axis=1))[:, None]
-    sd = trimesh.proximity.signed_distance(ico, pts)
+    sd = _signed_distance(pts, ico)
     args = (v, t, tn, origin[None], np.array([cell]), dims[None], np.zeros(1, np.int64),
             start, gtris)
     for p, ref in zip(pts, sd):
