@@ -137,8 +137,8 @@ def test_segment_deep_inside_a_closed_body_is_listed_and_pushed_out(shape, tmp_p
     2 mm (box) or ~7.9 mm (icosphere, 5120 triangles, many grid cells) from the nearest face,
     farther than reach from every face. It must be a candidate, and the narrow phase must give
     its nodes contacts with overlap r + depth (brute-force distance and winding number, an
-    independent reference; tolerance 1e-9 relative: both are exact closest-point distances), which the
-    first step reports as a bristle-body overlap. Catches dropping the inside test (segment not
+    independent reference; tolerance 1e-9 relative: both are exact closest-point distances),
+    which the first step reports as a bristle-body overlap. Catches dropping the inside test (segment not
     listed) and a narrow phase that only sees faces within a node's radius (the old one: a
     node deeper than its radius had no contact at all and stayed inside)."""
     if shape == "box":
