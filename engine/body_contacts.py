@@ -24,11 +24,14 @@ from .rotations import qrot, qrot_inv
 
 @njit(cache=True)
 def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
-                          x, bi, bj, seg_rmax, q, sphere_r, verts, tris, tnormal, grid_origin, grid_cell,
-                          grid_dims, grid_base, grid_start, grid_tris, local):
-    """(segment, body) pairs whose capsule and body surface are closer than ``skin``, sorted
-    by (segment, body); the bounding spheres prefilter. Segments of a brush mounted on a body
-    never touch that body. ``local`` is (2, 3) scratch."""
+                          x, bi, bj, seg_rmax, q, sphere_r, watertight, verts, tris, tnormal,
+                          pnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start,
+                          grid_tris, local):
+    """(segment, body) pairs whose capsule and body surface are closer than ``skin``, or
+    whose segment lies inside a closed body (a sphere, or a watertight mesh: then it may be
+    farther than the skin from every face), sorted by (segment, body); the bounding spheres
+    prefilter. Segments of a brush mounted on a body never touch that body. Open meshes have
+    no inside: surface distance only. ``local`` is (2, 3) scratch."""
     ns = mid.shape[0]
     nk = pos.shape[0]
     cap = out_s.shape[0]
@@ -63,22 +66,19 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                 tri, _s, _u, _v, _w, d = closest_triangle(k, l0, l1, reach, verts, tris, tnormal,
                                                           grid_origin, grid_cell, grid_dims,
                                                           grid_base, grid_start, grid_tris)
-                # a segment inside a closed body is far from every face but must stay listed
-                near = (tri >= 0 and d < reach) or _inside_bound(l0, l1, bound_r[k])
+                near = tri >= 0 and d < reach
+                if not near and watertight[k]:
+                    # no face within reach: the segment does not cross the surface, so both
+                    # ends are on the same side; one deep inside a closed body stays listed
+                    near = deep_closest(k, l0, reach, verts, tris, tnormal, pnormal,
+                                        grid_origin, grid_cell, grid_dims, grid_base,
+                                        grid_start, grid_tris)[0] >= 0
             if near:
                 if n < cap:
                     out_s[n] = s
                     out_b[n] = k
                 n += 1
     return n
-
-
-@njit(cache=True, inline="always")
-def _inside_bound(l0, l1, r):
-    """Either end of the segment inside the body's bounding sphere by more than half of it
-    (deep penetration that a surface distance would miss)."""
-    h = 0.25 * r * r
-    return (l0[0] ** 2 + l0[1] ** 2 + l0[2] ** 2 < h) or (l1[0] ** 2 + l1[1] ** 2 + l1[2] ** 2 < h)
 
 
 @njit(cache=True)
@@ -151,6 +151,62 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_ce
         # nothing within reach (a pruned search does not know the true closest beyond it)
         return -1, bs, bu, bv, bw, bd
     return best, bs, bu, bv, bw, bd
+
+
+@njit(cache=True)
+def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, grid_dims,
+                     grid_base, grid_start, grid_tris):
+    """The closest triangle of body k to the point p (body frame) at any distance, by
+    ``closest_triangle`` over a box that doubles from half-size ``r0`` until a triangle is
+    found within it (exact then: a triangle within r of p is listed in the cell that holds
+    its closest point, which the box covers). The box stops growing once it holds the whole
+    grid, so the cost follows the distance to the surface, not the triangle count. Returns
+    (tri, u, v, w, dist); tri = -1 only for a body without triangles."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    far = 0.0  # distance to the grid's farthest corner: a box this big scans every cell
+    for a in range(3):
+        e = max(abs(p[a] - lo[a]), abs(p[a] - lo[a] - grid_dims[k, a] * cell))
+        far += e * e
+    far = math.sqrt(far)
+    r = min(max(r0, 0.5 * cell), far)
+    while True:
+        tri, _s, u, v, w, d = closest_triangle(k, p, p, r, verts, tris, tnormal, grid_origin,
+                                               grid_cell, grid_dims, grid_base, grid_start,
+                                               grid_tris)
+        if tri >= 0 or r >= far:
+            return tri, u, v, w, d
+        r = min(2.0 * r, far)
+
+
+@njit(cache=True)
+def deep_closest(k, p, r0, verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                 grid_base, grid_start, grid_tris):
+    """For a point p (body frame) of a closed (watertight) mesh body k: its closest triangle
+    (tri, u, v, w, dist) if p lies inside the body, else tri = -1. Outside the grid's box
+    (which holds every triangle) is outside without a search; inside it, the closest
+    triangle at any distance (``nearest_triangle`` from half-size ``r0``) and the sign of
+    (p - closest point) along the feature's angle-weighted pseudo-normal decide, as in the
+    narrow phase. Only meaningful for watertight meshes."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    for a in range(3):
+        if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
+            return -1, 0.0, 0.0, 0.0, 0.0
+    tri, u, v, w, d = nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell,
+                                       grid_dims, grid_base, grid_start, grid_tris)
+    if tri < 0:
+        return -1, 0.0, 0.0, 0.0, 0.0
+    a0 = verts[tris[tri, 0]]
+    b0 = verts[tris[tri, 1]]
+    c0 = verts[tris[tri, 2]]
+    gx = p[0] - (u * a0[0] + v * b0[0] + w * c0[0])
+    gy = p[1] - (u * a0[1] + v * b0[1] + w * c0[1])
+    gz = p[2] - (u * a0[2] + v * b0[2] + w * c0[2])
+    fnx, fny, fnz = feature_normal(tri, u, v, w, pnormal)
+    if gx * fnx + gy * fny + gz * fnz < 0.0:
+        return tri, u, v, w, d
+    return -1, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True)
@@ -281,18 +337,21 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             cy = py - ny * hcp
             cz = pz - nz * hcp
         else:
-            if slot_k == 0:
-                tri, s, u, vv, ww, d = closest_triangle(k, l0, l0, rad[i0], verts, tris,
+            if slot_k <= 1:
+                pe = l0 if slot_k == 0 else l1
+                re = rad[i0] if slot_k == 0 else rad[i1]
+                tri, s, u, vv, ww, d = closest_triangle(k, pe, pe, re, verts, tris,
                                                         tnormal, grid_origin, grid_cell,
                                                         grid_dims, grid_base, grid_start,
                                                         grid_tris)
-                s = 0.0
-            elif slot_k == 1:
-                tri, s, u, vv, ww, d = closest_triangle(k, l1, l1, rad[i1], verts, tris,
-                                                        tnormal, grid_origin, grid_cell,
-                                                        grid_dims, grid_base, grid_start,
-                                                        grid_tris)
-                s = 1.0
+                if tri < 0 and watertight[k]:
+                    # no face within the node's radius: the node may be deep inside a
+                    # closed body, overlapping by more than its radius; push it out too
+                    tri, u, vv, ww, d = deep_closest(k, pe, 2.0 * re, verts, tris, tnormal,
+                                                     pnormal, grid_origin, grid_cell,
+                                                     grid_dims, grid_base, grid_start,
+                                                     grid_tris)
+                s = float(slot_k)
             else:
                 rmax = max(rad[i0], rad[i1])
                 tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, tnormal,

@@ -256,9 +256,10 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
     if fl.bristle_body:
         m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
                                       bd.collide, skin, bl.s2, bl.b2, nd.x, bn.i, bn.j,
-                                      bn.rmax, bd.q, bd.sphere_r, bd.verts, bd.tris, bd.tnormal,
-                                      bd.grid_origin, bd.grid_cell, bd.grid_dims, bd.grid_base,
-                                      bd.grid_start, bd.grid_tris, bd.scratch2)
+                                      bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
+                                      bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin,
+                                      bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
+                                      bd.grid_tris, bd.scratch2)
         if m_new > bl.s2.shape[0]:
             bl.n[1] = m_new
             return OVERFLOW_BODY
