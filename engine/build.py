@@ -19,7 +19,7 @@ from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_t
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Nodes, PairList,
                     Roots, Tables)
-from .timestep import automatic_dt
+from .timestep import BRISTLE_CONTACTS_PER_NODE, automatic_dt
 
 MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
 MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
@@ -528,7 +528,9 @@ def build(scene: Scene) -> System:
     # ------------------------------------------------------------------ stages
     bristle_mats = sorted({mat_index[b.material] for b in scene.brushes})
     body_mats = sorted({int(bmat[k]) for k in range(K) if collide[k]})
-    bb_needed = _bristles_can_meet(scene, brushes, x, rad, bristle_first, n_bristle, motion)
+    node_partners = _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle,
+                                      motion)
+    bb_needed = bool(node_partners.any())
     bbody_needed = N > 0 and bool(collide.any())
     spheres = [k for k in range(K) if collide[k] and sphere_r[k] > 0]
     bodybody_needed = False
@@ -602,12 +604,20 @@ def build(scene: Scene) -> System:
                 k_body += 2.0 * float(E_tab[bmat[k]]) * max(sphere_r[s] for s in spheres) * 2
             bodies_info.append((body_names[k], float(mass[k]), float(Ip[k].min()), k_body,
                                 float(bound_r[k])))
-    sysinfo = dict(node_mass=np.where(nmass > 0, nmass, 1.0), node_inertia=np.where(ninertia > 0, ninertia, 1.0),
+    kt_bb = max([ktr[a, b] for a in bristle_mats for b in bristle_mats if mu[a, b] > 0],
+                default=0.0)
+    kt_body = max([ktr[a, b] for a in bristle_mats for b in body_mats if mu[a, b] > 0],
+                  default=0.0)
+    node_k_body = (_node_body_stiffness(brushes, bodies, x, rad, E_node, nbristle, bristle_first,
+                                        E_tab, after_free) if bbody_needed else np.zeros(N))
+    sysinfo = dict(node_mass=np.where(nmass > 0, nmass, 1.0),
+                   node_inertia=np.where(ninertia > 0, ninertia, 1.0),
                    node_radius=rad, node_E=E_node, node_free=node_free,
-                   node_E_body=_body_contact_modulus(E_node, E_tab, bmat, collide),
+                   node_bristle_contacts=np.minimum(node_partners, BRISTLE_CONTACTS_PER_NODE),
+                   node_k_body=node_k_body, kt_ratio_bristle=float(kt_bb),
+                   kt_ratio_body=float(kt_body),
                    bond_arrays=(bi, bj, bonds.kn, bonds.ks, bonds.kb, bonds.kt, bonds.L0),
-                   bristle_bristle=bb_needed, bristle_body=bbody_needed, bodies=bodies_info,
-                   node_label=None)
+                   bodies=bodies_info, node_label=None)
     node_bristle_arr = nbristle
     bristle_first_arr = np.asarray(bristle_first, np.int64)
     bristle_brush_arr = np.asarray(bristle_brush, np.int64)
@@ -618,7 +628,7 @@ def build(scene: Scene) -> System:
         return (f"brush {brush.name!r} bristle {b - brush.first_bristle} node "
                 f"{n - int(bristle_first_arr[b])}")
     sysinfo["node_label"] = label
-    dt_stable, limited_by, _ = automatic_dt(sysinfo, 1.0)
+    dt_stable, limited_by, _ = automatic_dt(sysinfo)
     if scene.run.dt is None:
         dt = scene.run.dt_safety * dt_stable
         if not math.isfinite(dt):
@@ -810,34 +820,128 @@ def initial_lists(system: System) -> None:
         grow_lists(system, which, needed)
 
 
-def _bristles_can_meet(scene, brushes, x, rad, bristle_first, n_bristle, motion) -> bool:
-    """Can two different bristles ever touch? Roots further apart than the two bristles'
-    lengths plus radii cannot, unless a brush rides on a moving body."""
+STRETCH_MARGIN = 0.05  # reach of a node: its arc length from the root x (1 + this)
+
+
+def _node_reach(x, rad, nbristle, bristle_first):
+    """Per node, the root of its bristle and how far from it any point of the node's segments
+    can get: the arc length of the next node (bristles start straight), stretched by
+    ``STRETCH_MARGIN``, plus the bristle's largest radius. Contacts on a segment act on both
+    of its nodes (``contacts.add_segment_force``), hence the next node's arc length."""
+    N = x.shape[0]
+    first = np.asarray(bristle_first, np.int64)[nbristle]
+    last = np.asarray(bristle_first, np.int64)[nbristle + 1] - 1
+    root = x[first]
+    far = x[np.minimum(np.arange(N) + 1, last)]
+    r_max = np.zeros(len(bristle_first) - 1)
+    np.maximum.at(r_max, nbristle, rad)
+    reach = (1.0 + STRETCH_MARGIN) * np.linalg.norm(far - root, axis=1) + r_max[nbristle]
+    return root, reach
+
+
+def _roots_move(brushes, motion) -> np.ndarray:
+    """Per brush: does its base move (mounted on a body that is not fixed)?"""
+    return np.array([b.mount >= 0 and motion[b.mount] != FIXED for b in brushes], bool)
+
+
+def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motion):
+    """Per node, how many other bristles can touch its segments. Bristles whose roots are
+    fixed, or ride on one rigid base, keep their roots' distances, and a point of a bristle
+    stays within its reach (``_node_reach``) of its root: node i of bristle b and bristle c
+    can meet only if |root_b - root_c| <= reach_i + reach of c's tip. A bristle on a moving
+    base can meet every bristle of the other bases."""
+    N = x.shape[0]
+    count = np.zeros(N, np.int64)
     if n_bristle < 2:
-        return False
-    moving_mounts = {b.mount for b in brushes if b.mount >= 0 and motion[b.mount] != FIXED}
-    if moving_mounts and len(brushes) > 1:
-        return True
-    first = np.asarray(bristle_first[:-1], np.int64)
-    roots = x[first]
-    reach = np.zeros(n_bristle)
-    for br, info in zip(scene.brushes, brushes):
-        reach[info.first_bristle:info.first_bristle + info.n_bristles] = (
-            br.bristle_length + max(br.root_radius, br.tip_radius))
+        return count
     from scipy.spatial import cKDTree
-    tree = cKDTree(roots)
-    pairs = tree.query_pairs(2.0 * float(reach.max()), output_type="ndarray")
-    if len(pairs) == 0:
-        return False
-    d = np.linalg.norm(roots[pairs[:, 0]] - roots[pairs[:, 1]], axis=1)
-    return bool(np.any(d < reach[pairs[:, 0]] + reach[pairs[:, 1]]))
+    root, reach = _node_reach(x, rad, nbristle, bristle_first)
+    bf = np.asarray(bristle_first, np.int64)
+    tips = bf[1:] - 1
+    moving = _roots_move(brushes, motion)
+    brush_of = np.zeros(n_bristle, np.int64)
+    for i, info in enumerate(brushes):
+        brush_of[info.first_bristle:info.first_bristle + info.n_bristles] = i
+    # a rigid frame per bristle: -1 for the world, else the moving mount body
+    frame = np.array([brushes[b].mount if moving[b] else -1 for b in brush_of], np.int64)
+    for f in np.unique(frame):
+        members = np.flatnonzero(frame == f)
+        tree = cKDTree(root[bf[members]])
+        reach_tip = reach[tips[members]]
+        nodes = np.flatnonzero(np.isin(nbristle, members))
+        hits = tree.query_ball_point(root[nodes], reach[nodes] + reach_tip.max())
+        for n, h in zip(nodes, hits):
+            h = np.asarray(h, np.int64)
+            d = np.linalg.norm(root[bf[members[h]]] - root[n], axis=1)
+            count[n] += int(np.count_nonzero((d <= reach[n] + reach_tip[h])
+                                             & (members[h] != nbristle[n])))
+        others = int(np.count_nonzero(frame != f))
+        if others and (f >= 0 or np.any(frame >= 0)):
+            # another base moves relative to this one: any bristle of it may come
+            count[nodes] += others if f >= 0 else int(np.count_nonzero(frame >= 0))
+    return count
 
 
-def _body_contact_modulus(E_node: np.ndarray, E_tab: np.ndarray, bmat: np.ndarray,
-                          collide: np.ndarray) -> np.ndarray:
-    """Per node, 2 E_b E_k / (E_b + E_k) for the stiffest body k it could touch (k_n / r)."""
-    E_bodies = E_tab[bmat[collide]] if collide.any() else np.zeros(0)
-    if E_bodies.size == 0 or E_node.size == 0:
-        return np.zeros_like(E_node)
-    Ek = float(E_bodies.max())
-    return 2.0 * E_node * Ek / (E_node + Ek)
+def _body_regions(bodies, after_free):
+    """Per body, capsules (a, b, radius) that contain its surface over the whole run, or None
+    where its travel cannot be bounded (free bodies, kinematic ones freed at the end). A
+    kinematic Hermite segment p(tau) = p0 + (p1 - p0) h01 + h (h10 v0 + h11 v1) stays within
+    4/27 h (|v0| + |v1|) of [p0, p1] (|h10|, |h11| <= 4/27, 0 <= h01 <= 1)."""
+    regions = []
+    for k in range(bodies.pos.shape[0]):
+        R = float(bodies.bound_r[k])
+        m = bodies.motion[k]
+        if m == FIXED:
+            regions.append([(bodies.pos[k], bodies.pos[k], R)])
+        elif m == HINGE:
+            c = bodies.hinge_point[k]
+            regions.append([(c, c, float(np.linalg.norm(bodies.pos[k] - c)) + R)])
+        elif m == KINEMATIC and not after_free[k]:
+            segs = range(bodies.seg_start[k], bodies.seg_start[k + 1])
+            regions.append([(bodies.p0[c], bodies.p1[c], R + 4.0 / 27.0 * (
+                bodies.t1[c] - bodies.t0[c]) * (np.linalg.norm(bodies.v0[c])
+                                                 + np.linalg.norm(bodies.v1[c])))
+                            for c in segs])
+        else:
+            regions.append(None)
+    return regions
+
+
+def _node_body_stiffness(brushes, bodies, x, rad, E_node, nbristle, bristle_first, E_tab,
+                         after_free) -> np.ndarray:
+    """Per node, the sum over the bodies that can touch it of the contact's normal stiffness
+    ``2 E_b E_k r / (E_b + E_k)`` (seed eq. 3.6), doubled (a two-sided row) for bodies that
+    move under forces. A body can touch a node if the node's reach around its root
+    (``_node_reach``) meets the body's region (``_body_regions``); nodes of a brush on a moving
+    base can touch every body but their own mount."""
+    N = x.shape[0]
+    out = np.zeros(N)
+    root, reach = _node_reach(x, rad, nbristle, bristle_first)
+    moving = _roots_move(brushes, bodies.motion)
+    brush_of = np.zeros(N, np.int64)
+    mount_of = np.zeros(N, np.int64)
+    for i, info in enumerate(brushes):
+        sl = slice(info.first_node, info.first_node + info.n_bristles * info.n_nodes)
+        brush_of[sl] = i
+        mount_of[sl] = info.mount
+    node_moves = moving[brush_of]
+    for k, region in enumerate(_body_regions(bodies, after_free)):
+        if not bodies.collide[k]:
+            continue
+        if region is None:
+            can = np.ones(N, bool)
+        else:
+            gap = np.full(N, np.inf)
+            for a, b, R in region:
+                ab = b - a
+                L2 = float(ab @ ab)
+                t = np.clip((root - a) @ ab / L2, 0.0, 1.0) if L2 > 0 else np.zeros(N)
+                d = np.linalg.norm(root - (a + t[:, None] * ab), axis=1) - R
+                gap = np.minimum(gap, d)
+            can = (gap <= reach) | node_moves
+        can &= mount_of != k
+        Ek = float(E_tab[bodies.material[k]])
+        two_sided = bodies.motion[k] in (FREE, HINGE) or after_free[k]
+        out += np.where(can, (2.0 if two_sided else 1.0) * 2.0 * E_node * Ek / (E_node + Ek)
+                        * rad, 0.0)
+    return out

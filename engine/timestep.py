@@ -1,18 +1,32 @@
 """The automatic timestep: a Gershgorin bound on the highest angular frequency of the
-linearised system, ``dt = safety * 2 / omega_max`` (2 / omega is leapfrog's stability limit).
+linearised system, ``dt = 2 / omega_max`` (2 / omega is leapfrog's stability limit); ``build``
+multiplies it by ``run.dt_safety``.
 
 For every node the bound adds, over its bonds, the absolute entries of its rows of the
 mass-normalised Euler-Bernoulli element stiffness matrix (axial ``EA/L``, shear ``12EI/L^3``,
-coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus contacts: four
-bristle-bristle contacts (``k_n = 2 E1 r1 E2 r2/(E1 r1 + E2 r2)``, seed eq. 3.6) and one body
-contact (seed eq. 3.6 with both lengths equal to the node's radius, ``2 E_b E_k r / (E_b +
-E_k)``, against the stiffest body that can touch it). Bodies add their contacts
-with up to ``BODY_CONTACTS`` bristle segments, and sphere bodies their body-body contact.
-Gershgorin's bound is an upper bound of the true highest frequency, so the rule is
-conservative; the safety factor (default 0.5) leaves room for the contacts the estimate does
-not foresee. The element that gives the largest bound is reported as ``dt_limited_by``.
-``build`` then also caps dt so that no colliding body's surface moves more than half the step
-loop's tunnelling limit (a quarter of the smallest bristle radius) per step.
+coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus the contacts the node
+can actually have (``build`` works them out from where the node can reach):
+
+* bristle-bristle: one contact per other bristle that can reach the node's segments, at most
+  ``BRISTLE_CONTACTS_PER_NODE`` (``k_n = 2 E1 r1 E2 r2/(E1 r1 + E2 r2)``, seed eq. 3.6, taken
+  as ``E r`` of the node: the partner is assumed no softer, smaller nor lighter, as before);
+  a two-sided row (the node's own entry and its partner's);
+* bristle-body: one contact per body that can reach it (seed eq. 3.6 with both lengths equal
+  to the node's radius, ``2 E_b E_k r / (E_b + E_k)``); one-sided against fixed and
+  kinematic bodies, two-sided against bodies that move under forces.
+
+Every contact force acts at a point on the normal through the axis point it is attached to
+(``contacts.add_segment_force``), so the normal force has no moment about the node: only the
+tangential spring ``k_t = tangential_ratio k_n`` (zero without friction) acts on the node's
+rotation, with a lever of at most the radius ``r``. Per contact that adds ``k_t r^2/I`` to the
+rotation row and ``k_t r / sqrt(m I)`` coupling terms to both rows.
+
+Bodies add their contacts with up to ``BODY_CONTACTS`` bristle segments, and sphere bodies
+their body-body contact. Gershgorin's bound is an upper bound of the true highest frequency
+of the linearised system, so the rule is conservative. The element that gives the largest
+bound is reported as ``dt_limited_by``. ``build`` then also caps dt so that no colliding body's
+surface moves more than half the step loop's tunnelling limit (a quarter of the smallest
+bristle radius) per step.
 """
 from __future__ import annotations
 
@@ -20,8 +34,11 @@ import math
 
 import numpy as np
 
-BRISTLE_CONTACTS_PER_NODE = 4  # a node in a square brush can touch four neighbours
-BODY_CONTACTS_PER_NODE = 1
+# at most this many other bristles touch one node at once: the four neighbours of a square
+# brush (six parallel bristles of equal radius fit around one, but not with overlaps kept
+# below the instability limit in a pressed square brush: an assumption checked by
+# benchmarks/dt_margins.py, not a packing theorem)
+BRISTLE_CONTACTS_PER_NODE = 4
 BODY_CONTACTS = 100
 
 
@@ -47,8 +64,12 @@ def node_bond_bounds(mass, inertia, bi, bj, kn, ks, kb, kt, L0):
     return trans, rot
 
 
-def automatic_dt(system_info: dict, safety: float) -> tuple[float, str, float]:
-    """Return (dt, limited_by, omega_max) from the dict ``build`` prepares."""
+def automatic_dt(system_info: dict) -> tuple[float, str, float]:
+    """Return (dt, limited_by, omega_max) from the dict ``build`` prepares. Per node it needs
+    ``node_bristle_contacts`` (how many other bristles can touch it, already capped),
+    ``node_k_body`` (the summed one-sided normal stiffness of the bodies that can touch it,
+    N/m, two-sided ones counted twice) and the tangential ratios ``kt_ratio_bristle`` and
+    ``kt_ratio_body`` (0 without friction)."""
     candidates: list[tuple[float, str]] = []
     mass = system_info["node_mass"]
     if mass.size:
@@ -56,23 +77,24 @@ def automatic_dt(system_info: dict, safety: float) -> tuple[float, str, float]:
         rad = system_info["node_radius"]
         E = system_info["node_E"]
         trans, rot = node_bond_bounds(mass, inertia, *system_info["bond_arrays"])
-        kc = 0.0 * rad
-        if system_info["bristle_bristle"]:
-            kc = kc + BRISTLE_CONTACTS_PER_NODE * E * rad * 2.0  # k_n = E r, two-sided row
-        if system_info["bristle_body"]:
-            # k_n = 2 E_b E_k r / (E_b + E_k) against the stiffest body that can be touched
-            kc = kc + BODY_CONTACTS_PER_NODE * system_info["node_E_body"] * rad
-        w2_t = trans + kc / mass
-        w2_r = rot + kc * rad ** 2 / inertia
+        # two-sided rows: the node's own entry and its partner's (k_n = E r, seed eq. 3.6)
+        k_bb = 2.0 * system_info["node_bristle_contacts"] * E * rad
+        k_body = system_info["node_k_body"]
+        kt = system_info["kt_ratio_bristle"] * k_bb + system_info["kt_ratio_body"] * k_body
+        lever = kt * rad / np.sqrt(mass * inertia)  # tangential spring at lever r
+        w2_t = trans + (k_bb + k_body) / mass + lever
+        w2_r = rot + kt * rad ** 2 / inertia + lever
         free = system_info["node_free"]
         w2_t = np.where(free, w2_t, 0.0)
         w2_r = np.where(free, w2_r, 0.0)
         it = int(np.argmax(w2_t))
         ir = int(np.argmax(w2_r))
         label = system_info["node_label"]
-        parts_t = "bonds" + (" + contacts" if kc.any() else "")
-        candidates.append((float(w2_t[it]), f"translation of {label(it)} ({parts_t})"))
-        candidates.append((float(w2_r[ir]), f"rotation of {label(ir)} ({parts_t})"))
+
+        def parts(n):
+            return "bonds" + (" + contacts" if k_bb[n] + k_body[n] > 0 else "")
+        candidates.append((float(w2_t[it]), f"translation of {label(it)} ({parts(it)})"))
+        candidates.append((float(w2_r[ir]), f"rotation of {label(ir)} ({parts(ir)})"))
     for name, m, imin, k_body, bound_r in system_info["bodies"]:
         if m > 0:
             candidates.append((k_body / m, f"contacts of body {name!r} (translation)"))
@@ -84,4 +106,4 @@ def automatic_dt(system_info: dict, safety: float) -> tuple[float, str, float]:
         return math.inf, "nothing moves elastically", 0.0
     w2, label = max(candidates)
     omega = math.sqrt(w2)
-    return safety * 2.0 / omega, label, omega
+    return 2.0 / omega, label, omega

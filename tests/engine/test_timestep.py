@@ -1,0 +1,88 @@
+"""The automatic timestep counts only the contacts a node can actually have
+(engine/timestep.py, the dt section of engine/build.py)."""
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+import engine
+
+STEEL = {"youngs_modulus": 200e9, "poisson_ratio": 0.3, "density": 7640.0}
+
+
+def _rods(columns: int, pitch: float = 0.2, length: float = 0.09, n_nodes: int = 10,
+          bodies=(), brushes=None) -> dict:
+    """Steel rods (1.42 mm diameter) clamped at z = 0 along +z, ``pitch`` apart along x."""
+    brush = {"name": "rods", "material": "steel", "rows": 1, "columns": columns,
+             "pitch": [pitch, pitch], "bristle_length": length, "root_radius": 0.00071,
+             "tip_radius": 0.00071, "n_nodes": n_nodes}
+    return {"schema_version": 1, "name": "rods", "materials": {"steel": STEEL},
+            "brushes": brushes or [brush], "bodies": list(bodies),
+            "environment": {"gravity": [0.0, 0.0, 0.0]},
+            "run": {"duration": 1e-3, "record_interval": 1e-4}}
+
+
+def _dt(scene: dict) -> engine.System:
+    return engine.build(engine.parse_scene(scene))
+
+
+def _far_plate() -> dict:
+    """A fixed steel plate 1 m above the rods: no rod can reach it."""
+    return {"name": "plate", "material": "steel", "shape": {"type": "box",
+                                                           "size": [0.05, 0.05, 0.01]},
+            "pose": {"position": [0.0, 0.0, 1.0]}, "motion": {"type": "fixed"}}
+
+
+def _on_one_base(xs) -> dict:
+    """One-rod brushes at ``xs`` on one moving (kinematic, non-colliding, turning) base."""
+    one = _rods(1)["brushes"][0]
+    brushes = [dict(copy.deepcopy(one), name=f"b{i}", mount="base",
+                    base={"position": [x, 0.0, 0.0]}) for i, x in enumerate(xs)]
+    base = {"name": "base", "material": "steel", "collide": False,
+            "shape": {"type": "box", "size": [0.3, 0.02, 0.01]},
+            "pose": {"position": [0.0, 0.0, -0.005]},
+            "motion": {"type": "kinematic", "profile": {"kind": "constant",
+                                                        "velocity": [0.0, 0.0, 0.0],
+                                                        "angular_velocity": [0.0, 0.0, 1.0]}}}
+    return _rods(len(xs), brushes=brushes, bodies=[base])
+
+
+@pytest.mark.parametrize("scene", ["apart", "far body", "one moving base"])
+def test_rods_that_cannot_meet_get_the_dt_of_one_rod(scene):
+    """Two 90 mm steel rods 0.2 m apart can never touch (each stays within 90 mm of its root,
+    fixed or on one rigid base), nor reach a plate 1 m away: their dt must be one rod's (the
+    same arrays, so equal to round-off). Catches a contact term put on every node (the flat
+    budget of 4 bristle + 1 body contacts made dt several times smaller) and the old rule
+    that any two brushes on a moving body may meet."""
+    if scene == "one moving base":
+        one = _dt(_on_one_base([-0.1]))
+        two = _dt(_on_one_base([-0.1, 0.1]))
+    else:
+        bodies = [_far_plate()] if scene == "far body" else []
+        one = _dt(_rods(1))
+        two = _dt(_rods(2, bodies=bodies))
+    assert "contacts" not in two.dt_limited_by
+    assert two.dt_stable == pytest.approx(one.dt_stable, rel=1e-12)  # identical bond arrays
+
+
+def test_bristles_that_can_touch_keep_the_contact_term():
+    """Rods 5 mm apart can touch (the reach spheres overlap): the contact term must stay and
+    make dt smaller than one rod's (a steel contact k = E r = 1.4e8 N/m is stiffer than the
+    rod's bonds). Catches a reach test that drops contacts that can happen."""
+    one = _dt(_rods(1))
+    two = _dt(_rods(2, pitch=0.005))
+    assert "contacts" in two.dt_limited_by
+    assert two.dt_stable < 0.8 * one.dt_stable  # contacts at least 1.5x the bonds' omega^2
+
+
+def test_a_body_in_reach_adds_its_contact_term():
+    """A fixed plate 20 mm above the 90 mm rods' tips is in reach of the outer nodes only:
+    the contact term must appear (dt smaller than without the plate). Catches a body
+    region that misses the body (e.g. a wrong centre or radius)."""
+    plate = _far_plate()
+    plate["pose"]["position"] = [0.0, 0.0, 0.09 + 0.02 + 0.005]
+    near = _dt(_rods(1, bodies=[plate]))
+    alone = _dt(_rods(1))
+    assert "contacts" in near.dt_limited_by
+    assert near.dt_stable < 0.8 * alone.dt_stable
