@@ -18,6 +18,9 @@ waited for (``resource.getrusage(RUSAGE_CHILDREN)``), the median of ``--repeat``
   * *start-up* = whole - repeat: what one invocation pays once (interpreter, imports of
     engine, numba, trimesh, scipy, matplotlib, h5py, loading the cached kernels, parsing).
     **Target: <= 2 CPU-s.**
+  * *whole, on a Dask cluster*: the same command with its one run sent, as before the
+    one-worker path existed, to a local Dask cluster of one worker process (the runner's
+    ``_run_on_dask`` in place of ``_run_here``), for the ratio. ``--no-dask`` leaves it out.
 
 The cold start (numba compiling every kernel) is in ``throughput.py``'s start-up figure;
 this script warms the cache first and does not count that run.
@@ -88,9 +91,25 @@ def study_repeat_cpu(tmp: Path) -> float:
     return float(line.split()[1])
 
 
+# the study with its runs on a local Dask cluster of one worker, as before the one-worker path
+_DASK_CODE = """
+import sys
+import studio.studies.runner as r
+from studio.cli import main
+
+def on_dask(todo, out_dir, bar, n_before, tally, finish):
+    r._run_on_dask(todo, out_dir, bar, n_before, finish, None, 1)
+
+r._run_here = on_dask
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3, help="runs per figure (median)")
+    ap.add_argument("--no-dask", action="store_true",
+                    help="leave out the study on a one-worker Dask cluster")
     args = ap.parse_args(argv)
     scene = ROOT / "static_presets" / "wedge_60.json"
     with tempfile.TemporaryDirectory(prefix="bench-startup-") as tmp_name:
@@ -107,6 +126,8 @@ def main(argv=None) -> int:
         }
         figures: dict[str, list[float]] = {k: [] for k in cases}
         figures.update({"study: whole": [], "study: repeat": []})
+        if not args.no_dask:
+            figures["study: whole, on a Dask cluster"] = []
         for r in range(args.repeat):
             for label, cmd in cases.items():
                 figures[label].append(child_cpu(cmd))
@@ -114,9 +135,16 @@ def main(argv=None) -> int:
             figures["study: whole"].append(child_cpu(CLI + STUDY + ["-o", str(out)]))
             shutil.rmtree(out)
             figures["study: repeat"].append(study_repeat_cpu(tmp))
+            if not args.no_dask:
+                cmd = [sys.executable, "-c", _DASK_CODE, *STUDY, "-o", str(out)]
+                figures["study: whole, on a Dask cluster"].append(child_cpu(cmd))
+                shutil.rmtree(out)
 
     med = {k: statistics.median(v) for k, v in figures.items()}
     med["study: start-up (whole - repeat)"] = med["study: whole"] - med["study: repeat"]
+    if not args.no_dask:
+        med["study: start-up on a Dask cluster"] = (med["study: whole, on a Dask cluster"]
+                                                    - med["study: repeat"])
     print(f"\nStart-up, warm numba cache: CPU-s (user + system) of a fresh process, median of "
           f"{args.repeat}")
     print(f"study = brush-studio {' '.join(STUDY)}")
@@ -126,6 +154,10 @@ def main(argv=None) -> int:
         if k in figures and len(figures[k]) > 1:
             spread = f"   (min {min(figures[k]):.2f}, max {max(figures[k]):.2f})"
         print(f"  {k:<{width}}  {v:6.2f}{spread}")
+    if not args.no_dask:
+        ratio = (med["study: start-up on a Dask cluster"]
+                 / med["study: start-up (whole - repeat)"])
+        print(f"  start-up ratio, Dask cluster / in this process: {ratio:.1f}")
     ok = med["study: start-up (whole - repeat)"] <= 2.0
     print(f"target: study start-up <= 2 CPU-s: {'met' if ok else 'NOT met'}")
     return 0
