@@ -423,7 +423,10 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
     multiprocessing.current_process()._config["daemon"] = False
     import numba
 
-    import engine  # noqa: F401  (numba, the kernels' cache: once per worker)
+    # the kernel modules, numba and trimesh: once per worker (``import engine`` alone is
+    # light and would leave them to the first job)
+    import engine.build  # noqa: F401
+    import engine.run  # noqa: F401
 
     conn.send(("ready", os.getpid(), int(numba.config.NUMBA_NUM_THREADS)))
     while True:

@@ -25,7 +25,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "study", help="run a study (many simulations) into an output folder",
         description="Studies run many simulations on Dask distributed (a local cluster using "
-                    "every core by default, or --scheduler tcp://HOST:PORT) and write CSV, "
+                    "every core by default, or --scheduler tcp://HOST:PORT; --workers 1 runs "
+                    "them in this process, without a cluster) and write CSV, "
                     "HDF5 and PNG plots into an output folder. Restarting a study in the same "
                     "folder skips the runs already complete. See docs/studies.md.",
         epilog="Exit codes: 0 ok, 1 some runs failed (listed with their parameters), "

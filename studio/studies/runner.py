@@ -20,6 +20,11 @@ summary; it may hold ``"status"``: ``"completed"`` (the default) or ``"stopped"`
 exception in the task (an instability, a scene the engine refuses) makes the run ``failed``,
 with the error's type and message; nothing else is affected.
 
+One worker (``n_workers=1``, or a one-core machine, and no scheduler) starts no cluster: the
+runs go one after another through the same task function in this process, so that a short
+study does not pay for a scheduler and a worker process that imports the engine again (with
+the same outputs, restart skips, failure reports, and Ctrl-C keeping finished runs).
+
 Workers: the local cluster starts one single-threaded worker *process* per core
 (``NUMBA_NUM_THREADS=1`` in each), so that the runs, not numba's thread pools, share the
 cores. Each task also caps numba's threads for its own thread at
@@ -161,12 +166,16 @@ def _limit_numba_threads() -> None:
         pass
 
 
-def execute_spec(spec: dict, out_dir: str) -> dict:
-    """Run one spec (as a dict) on this process: the function each Dask task calls.
+def execute_spec(spec: dict, out_dir: str, *, on_progress: Optional[Callable] = None,
+                 reraise_interrupt: bool = False) -> dict:
+    """Run one spec (as a dict) on this process: the function each Dask task calls, and
+    the one-worker path of :func:`run_many` calls in its own process.
 
     Writes ``runs/<run_id>.h5`` (through the task) and then, atomically,
     ``runs/<run_id>.json``; returns the outcome as a dict. Never raises for a failing run:
-    the failure is the outcome."""
+    the failure is the outcome. A KeyboardInterrupt makes the run ``cancelled``; with
+    ``reraise_interrupt`` it is raised again once that outcome is written (a study in this
+    process stops there). ``on_progress(fraction)``: also told what the task reports."""
     import engine
 
     global _PROGRESS
@@ -174,8 +183,9 @@ def execute_spec(spec: dict, out_dir: str) -> dict:
     run_id = spec["run_id"]
     h5, js = run_paths(Path(out_dir), run_id)
     h5.parent.mkdir(parents=True, exist_ok=True)
-    _PROGRESS = _ProgressFile(progress_path(Path(out_dir), run_id))
+    _PROGRESS = _ProgressFile(progress_path(Path(out_dir), run_id), on_progress)
     status, summary, error = "failed", {}, None
+    interrupted = False
     t0 = time.perf_counter()
     try:
         fn = resolve_task(spec["task"])
@@ -190,7 +200,7 @@ def execute_spec(spec: dict, out_dir: str) -> dict:
     except engine.SceneError as exc:
         error = "SceneError: " + "; ".join(str(p) for p in exc.problems)
     except KeyboardInterrupt:
-        status, error = "cancelled", "KeyboardInterrupt"
+        status, error, interrupted = "cancelled", "KeyboardInterrupt", True
     except Exception as exc:
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" (at {tb[-1].filename}:{tb[-1].lineno})" if tb else ""
@@ -206,6 +216,8 @@ def execute_spec(spec: dict, out_dir: str) -> dict:
                "skipped": False}
     write_json_atomic(js, dict(outcome, digest=spec["digest"], task=spec["task"],
                                finished=time.time()))
+    if interrupted and reraise_interrupt:
+        raise KeyboardInterrupt
     return jsonable(outcome)
 
 
@@ -215,8 +227,9 @@ def progress_path(out_dir: Path, run_id: str) -> Path:
 
 
 class _ProgressFile:
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, on_progress: Optional[Callable] = None):
         self.path = path
+        self.on_progress = on_progress
         self.last = 0.0
 
     def write(self, fraction: float) -> None:
@@ -224,6 +237,8 @@ class _ProgressFile:
         if now - self.last < 0.5:
             return
         self.last = now
+        if self.on_progress is not None:
+            self.on_progress(min(max(float(fraction), 0.0), 1.0))
         tmp = self.path.with_name(self.path.name + ".tmp")
         try:
             tmp.write_text(f"{min(max(float(fraction), 0.0), 1.0):.6f}")
@@ -313,13 +328,13 @@ def _connect(scheduler: Optional[str], n_workers: Optional[int]):
 def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = None,
              n_workers: Optional[int] = None, progress: bool = True,
              desc: str = "runs") -> list[RunOutcome]:
-    """Run ``specs`` on Dask distributed, one task per run; outcomes in the order of
-    ``specs``.
+    """Run ``specs``, one task per run; outcomes in the order of ``specs``.
 
-    ``scheduler``: ``None`` starts a local cluster with ``n_workers`` single-threaded worker
-    processes (default: one per core) and stops it at the end; ``"tcp://host:port"`` uses an
-    existing scheduler and its workers. Runs already complete in ``out_dir`` (same hash)
-    are skipped (``skipped=True``). ``progress`` shows a tqdm bar over runs.
+    ``scheduler``: ``None`` starts a local Dask cluster with ``n_workers`` single-threaded
+    worker processes (default: one per core) and stops it at the end, or, for one worker,
+    runs the tasks one after another in this process (no cluster); ``"tcp://host:port"``
+    uses an existing scheduler and its workers. Runs already complete in ``out_dir`` (same
+    hash) are skipped (``skipped=True``). ``progress`` shows a tqdm bar over runs.
 
     Ctrl-C (KeyboardInterrupt) cancels the queued runs and re-raises; runs finished before
     it keep their files, so the next call picks up from there."""
@@ -351,51 +366,91 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
                          "params": jsonable(spec.params), "task": spec.task,
                          "digest": digest}))
 
-    bar = tqdm(total=len(specs), initial=len(specs) - len(todo), desc=desc, unit="run",
+    n_before = len(specs) - len(todo)
+    bar = tqdm(total=len(specs), initial=n_before, desc=desc, unit="run",
                disable=not progress, dynamic_ncols=True, file=sys.stderr)
-    n_failed = 0
-    finished = 0
+    tally = {"failed": 0, "finished": 0}
+
+    def finish(i: int, d: dict, result) -> None:
+        """Record the outcome of ``todo`` entry (i, d): ``result`` is what
+        :func:`execute_spec` returned, or the exception that came instead of it."""
+        if isinstance(result, BaseException):  # the worker died (KilledWorker), ...
+            h5, js = run_paths(out_dir, d["run_id"])
+            outcome = RunOutcome(d["run_id"], d["params"], "failed", {},
+                                 f"{type(result).__name__}: {result}", h5, 0.0)
+            write_json_atomic(js, dict(outcome.to_dict(), digest=d["digest"], task=d["task"]))
+        else:
+            outcome = _outcome_from_dict(result, skipped=False)
+        outcomes[i] = outcome
+        if not outcome.ok:
+            tally["failed"] += 1
+            bar.write(f"run {outcome.run_id} {outcome.status}: "
+                      f"{outcome.error}  params {json.dumps(outcome.params)}")
+        tally["finished"] += 1
+        bar.set_postfix_str(f"{tally['failed']} failed", refresh=False)
+        bar.n = n_before + tally["finished"]
+        bar.refresh()
+
     try:
-        if todo:
-            client, cluster = _connect(scheduler, n_workers)
-            try:
-                futures = {}
-                for i, d in todo:
-                    fut = client.submit(execute_spec, d, str(out_dir.resolve()),
-                                        key=f"brush-run-{d['run_id']}-{d['digest']}",
-                                        pure=False, retries=0)
-                    futures[fut] = (i, d)
-                try:
-                    for fut in _completed(futures, bar, out_dir, len(specs) - len(todo)):
-                        i, d = futures[fut]
-                        try:
-                            res = fut.result()
-                            outcome = _outcome_from_dict(res, skipped=False)
-                        except Exception as exc:  # the worker died (KilledWorker), ...
-                            h5, js = run_paths(out_dir, d["run_id"])
-                            outcome = RunOutcome(d["run_id"], d["params"], "failed", {},
-                                                 f"{type(exc).__name__}: {exc}", h5, 0.0)
-                            write_json_atomic(js, dict(outcome.to_dict(),
-                                                       digest=d["digest"], task=d["task"]))
-                        outcomes[i] = outcome
-                        if not outcome.ok:
-                            n_failed += 1
-                            bar.write(f"run {outcome.run_id} {outcome.status}: "
-                                      f"{outcome.error}  params {json.dumps(outcome.params)}")
-                        finished += 1
-                        bar.set_postfix_str(f"{n_failed} failed", refresh=False)
-                        bar.n = len(specs) - len(todo) + finished
-                        bar.refresh()
-                except BaseException:
-                    client.cancel(list(futures))
-                    raise
-            finally:
-                client.close()
-                if cluster is not None:
-                    cluster.close()
+        if todo and scheduler is None and (n_workers or default_workers()) == 1:
+            _run_here(todo, out_dir, bar, n_before, tally, finish)
+        elif todo:
+            _run_on_dask(todo, out_dir, bar, n_before, finish, scheduler, n_workers)
     finally:
         bar.close()
     return list(outcomes)  # type: ignore[arg-type]  # every run has its outcome here
+
+
+def _run_here(todo: list, out_dir: Path, bar, n_before: int, tally: dict, finish) -> None:
+    """The one-worker path: each run through :func:`execute_spec` in this process, in order.
+    Ctrl-C cancels the run under way (its outcome says so) and the ones after it."""
+    import numba
+
+    def moved(fraction: float) -> None:
+        n = round(n_before + tally["finished"] + fraction, 2)
+        if n != bar.n:
+            bar.n = n
+            bar.refresh()
+
+    threads = numba.get_num_threads()  # execute_spec caps this thread's; give it back
+    try:
+        for i, d in todo:
+            try:
+                result = execute_spec(d, str(out_dir.resolve()), on_progress=moved,
+                                      reraise_interrupt=True)
+            except Exception as exc:  # an outcome that could not be written, ...
+                result = exc
+            finish(i, d, result)
+    finally:
+        numba.set_num_threads(threads)
+
+
+def _run_on_dask(todo: list, out_dir: Path, bar, n_before: int, finish,
+                 scheduler: Optional[str], n_workers: Optional[int]) -> None:
+    """Every run as a task of a Dask cluster (a local one, or ``scheduler``'s)."""
+    client, cluster = _connect(scheduler, n_workers)
+    try:
+        futures = {}
+        for i, d in todo:
+            fut = client.submit(execute_spec, d, str(out_dir.resolve()),
+                                key=f"brush-run-{d['run_id']}-{d['digest']}",
+                                pure=False, retries=0)
+            futures[fut] = (i, d)
+        try:
+            for fut in _completed(futures, bar, out_dir, n_before):
+                i, d = futures[fut]
+                try:
+                    result = fut.result()
+                except Exception as exc:  # the worker died (KilledWorker), ...
+                    result = exc
+                finish(i, d, result)
+        except BaseException:
+            client.cancel(list(futures))
+            raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def _completed(futures: dict, bar, out_dir: Path, n_before: int):
@@ -453,7 +508,8 @@ def add_common_options(parser: argparse.ArgumentParser, default_output: Optional
                         "default: a local cluster, one single-threaded worker per core")
     g.add_argument("--workers", type=int, metavar="N", default=None,
                    help=f"worker processes of the local cluster (default: one per core, "
-                        f"{default_workers()} here)")
+                        f"{default_workers()} here); 1 runs the runs in this process, "
+                        f"one after another, without a cluster")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
