@@ -2,7 +2,10 @@
 
 Numba re-validates a cached function against its own file only, not against the functions
 it calls in other files, so an edited kernel could be run through a stale caller. At import
-we hash every engine source file and drop all cached kernels when the hash changed.
+we hash every engine source file that holds compiled code (those that import numba, and the
+state bundles they are typed on) and drop
+all cached kernels when the hash changed; editing the numba-free modules (the spec, the
+build, the run loop in Python) keeps the cache.
 """
 from __future__ import annotations
 
@@ -15,8 +18,11 @@ _HERE = Path(__file__).parent
 def ensure_fresh_cache() -> None:
     digest = hashlib.sha256()
     for path in sorted(_HERE.glob("*.py")):
+        text = path.read_bytes()
+        if not (b"from numba" in text or b"import numba" in text or path.name == "state.py"):
+            continue
         digest.update(path.name.encode())
-        digest.update(path.read_bytes())
+        digest.update(text)
     stamp = _HERE / "__pycache__" / "numba-source.sha256"
     want = digest.hexdigest()
     try:

@@ -19,7 +19,7 @@ from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_t
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Nodes, PairList,
                     Roots, Tables)
-from .timestep import BRISTLE_CONTACTS_PER_NODE, automatic_dt
+from .timestep import BRISTLE_CONTACTS_PER_NODE, automatic_dt, equalizing_scales
 
 MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
 MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
@@ -467,7 +467,7 @@ def build(scene: Scene) -> System:
     qn = np.asarray(qs, float).reshape(N, 4)
     rad = cat(rads, 0)
     nmass = cat(masses, 0)
-    ninertia = cat(inertias, 0) * scene.environment.rotational_inertia_scale
+    ninertia = cat(inertias, 0)
     nbristle = cat(node_bristle, 0, np.int64)
     bi = cat(bi_l, 0, np.int64)
     bj = cat(bj_l, 0, np.int64)
@@ -628,6 +628,13 @@ def build(scene: Scene) -> System:
         return (f"brush {brush.name!r} bristle {b - brush.first_bristle} node "
                 f"{n - int(bristle_first_arr[b])}")
     sysinfo["node_label"] = label
+    if scene.environment.inertia_scaling == "equalize" and N:
+        mass_scale, inertia_scale = equalizing_scales(sysinfo)
+        nodes.inv_mass[:] /= mass_scale          # the weight (nodes.mass) stays physical
+        nodes.inertia[:] *= inertia_scale
+        nodes.inv_inertia[:] /= inertia_scale
+        sysinfo["node_mass"] = sysinfo["node_mass"] * mass_scale
+        sysinfo["node_inertia"] = sysinfo["node_inertia"] * inertia_scale
     dt_stable, limited_by, _ = automatic_dt(sysinfo)
     if scene.run.dt is None:
         dt = scene.run.dt_safety * dt_stable

@@ -327,13 +327,12 @@ class Environment(_Model):
         0.0, ge=0.0, lt=1.0, allow_inf_nan=False,
         description="Cundall's non-viscous local damping of bristle nodes (0 = none); for "
                     "quasi-static loading only")
-    rotational_inertia_scale: float = Field(
-        1.0, ge=1.0, le=1e6, allow_inf_nan=False,
-        description="multiplies the bristle nodes' rotational inertia (1 = physical). For "
-                    "quasi-static loading only: a static equilibrium does not depend on "
-                    "inertia, and the tip nodes' rotation, not their translation, limits "
-                    "the automatic dt, so a larger inertia lets dt grow; the dynamics are "
-                    "then not physical")
+    inertia_scaling: Literal["none", "equalize"] = Field(
+        "none", description="'equalize' (quasi-static loading only): the bristle nodes' mass "
+                            "and rotational inertia, as the integrator sees them (not their "
+                            "weight), are raised so that no node's stability bound exceeds "
+                            "the median node's; a static equilibrium does not depend on "
+                            "inertia, and dt grows; the dynamics are then not physical")
 
 
 Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending"]

@@ -64,6 +64,39 @@ def node_bond_bounds(mass, inertia, bi, bj, kn, ks, kb, kt, L0):
     return trans, rot
 
 
+def node_bounds(system_info: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per node, the Gershgorin bounds of omega^2 of its translation and its rotation (zero
+    for nodes that do not move), and the normal contact stiffness charged to it (N/m)."""
+    mass = system_info["node_mass"]
+    inertia = system_info["node_inertia"]
+    rad = system_info["node_radius"]
+    E = system_info["node_E"]
+    trans, rot = node_bond_bounds(mass, inertia, *system_info["bond_arrays"])
+    # two-sided rows: the node's own entry and its partner's (k_n = E r, seed eq. 3.6)
+    k_bb = 2.0 * system_info["node_bristle_contacts"] * E * rad
+    k_body = system_info["node_k_body"]
+    kt = system_info["kt_ratio_bristle"] * k_bb + system_info["kt_ratio_body"] * k_body
+    lever = kt * rad / np.sqrt(mass * inertia)  # tangential spring at lever r
+    w2_t = trans + (k_bb + k_body) / mass + lever
+    w2_r = rot + kt * rad ** 2 / inertia + lever
+    free = system_info["node_free"]
+    return np.where(free, w2_t, 0.0), np.where(free, w2_r, 0.0), k_bb + k_body
+
+
+def equalizing_scales(system_info: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Factors (>= 1) on each node's mass and rotational inertia that bring every bound of
+    :func:`node_bounds` down to the median translational bound of the moving nodes: the
+    light, stiffly contacted tip nodes then no longer set dt alone (a Jacobi-like
+    preconditioning of dynamic relaxation). For quasi-static runs only."""
+    w2_t, w2_r, _ = node_bounds(system_info)
+    free = system_info["node_free"]
+    if not free.any():
+        return np.ones_like(w2_t), np.ones_like(w2_r)
+    target = float(np.median(w2_t[free]))
+    return (np.where(free, np.maximum(1.0, w2_t / target), 1.0),
+            np.where(free, np.maximum(1.0, w2_r / target), 1.0))
+
+
 def automatic_dt(system_info: dict) -> tuple[float, str, float]:
     """Return (dt, limited_by, omega_max) from the dict ``build`` prepares. Per node it needs
     ``node_bristle_contacts`` (how many other bristles can touch it, already capped),
@@ -73,26 +106,13 @@ def automatic_dt(system_info: dict) -> tuple[float, str, float]:
     candidates: list[tuple[float, str]] = []
     mass = system_info["node_mass"]
     if mass.size:
-        inertia = system_info["node_inertia"]
-        rad = system_info["node_radius"]
-        E = system_info["node_E"]
-        trans, rot = node_bond_bounds(mass, inertia, *system_info["bond_arrays"])
-        # two-sided rows: the node's own entry and its partner's (k_n = E r, seed eq. 3.6)
-        k_bb = 2.0 * system_info["node_bristle_contacts"] * E * rad
-        k_body = system_info["node_k_body"]
-        kt = system_info["kt_ratio_bristle"] * k_bb + system_info["kt_ratio_body"] * k_body
-        lever = kt * rad / np.sqrt(mass * inertia)  # tangential spring at lever r
-        w2_t = trans + (k_bb + k_body) / mass + lever
-        w2_r = rot + kt * rad ** 2 / inertia + lever
-        free = system_info["node_free"]
-        w2_t = np.where(free, w2_t, 0.0)
-        w2_r = np.where(free, w2_r, 0.0)
+        w2_t, w2_r, k_contact = node_bounds(system_info)
         it = int(np.argmax(w2_t))
         ir = int(np.argmax(w2_r))
         label = system_info["node_label"]
 
         def parts(n):
-            return "bonds" + (" + contacts" if k_bb[n] + k_body[n] > 0 else "")
+            return "bonds" + (" + contacts" if k_contact[n] > 0 else "")
         candidates.append((float(w2_t[it]), f"translation of {label(it)} ({parts(it)})"))
         candidates.append((float(w2_r[ir]), f"rotation of {label(ir)} ({parts(ir)})"))
     for name, m, imin, k_body, bound_r in system_info["bodies"]:

@@ -59,7 +59,7 @@ PROTOCOL_DEFAULTS = {
     "max_hold": 1.0,           # s, longest hold after one step
     # quasi-static only (docs/studies.md): numerical settings that leave equilibria unchanged
     "qs_local_damping": 0.7,
-    "qs_rotational_inertia_scale": 4.0,
+    "qs_inertia_scaling": "equalize",
     "qs_checks_per_period": 40,  # balance checks per period of the slowest bristle
     "qs_max_acceleration": 4.0,  # m/s^2, a_m of each increment's parabolic move
     "qs_increments": 1,          # increments per step, each settled and its slip committed
@@ -172,8 +172,10 @@ def make_protocol(scene: dict, *, body: str = "wedge", brush: Optional[str] = No
             raise StudyInputError(f"{k} = {proto[k]}: must be > 0")
     if not 0 <= proto["qs_local_damping"] < 1:
         raise StudyInputError(f"qs_local_damping = {proto['qs_local_damping']}: in [0, 1)")
-    if not proto["qs_rotational_inertia_scale"] >= 1:
-        raise StudyInputError("qs_rotational_inertia_scale must be >= 1")
+    if proto["qs_inertia_scaling"] not in ("none", "equalize"):
+        raise StudyInputError("qs_inertia_scaling must be 'none' or 'equalize'")
+    if int(proto["qs_increments"]) != proto["qs_increments"]:
+        raise StudyInputError("qs_increments must be a whole number")
     if proto["frames_per_window"] < 3:
         raise StudyInputError("frames_per_window must be >= 3 (a standard deviation)")
     proto.update(body=body, brush=brush, step=step, max_acceleration=a_m,
@@ -210,7 +212,7 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
     if quasi_static:
         d["environment"].update(
             local_damping=max(p["qs_local_damping"], d["environment"].get("local_damping", 0)),
-            rotational_inertia_scale=p["qs_rotational_inertia_scale"])
+            inertia_scaling=p["qs_inertia_scaling"])
     system = engine.build(engine.parse_scene(d))
     scratch = h5_path.parent / f".{h5_path.stem}.scratch"
     shutil.rmtree(scratch, ignore_errors=True)
@@ -335,7 +337,7 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
             "sim_time_s": system.time, "dt": system.dt, "n_nodes": system.n_nodes,
             "step_duration_s": t_d,
             "local_damping": system.scene.environment.local_damping,
-            "rotational_inertia_scale": system.scene.environment.rotational_inertia_scale,
+            "inertia_scaling": system.scene.environment.inertia_scaling,
             "method": p.get("method", "dynamic"),
             "max_out_of_balance_N": float(np.nanmax(rec["out_of_balance_N"]))
             if quasi_static else None}
