@@ -329,7 +329,9 @@ class Environment(_Model):
                     "quasi-static loading only")
 
 
-Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending"]
+Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending",
+                  "node_velocities"]
+#: the default: every channel but ``node_velocities`` (it doubles the nodes' share of a file)
 ALL_CHANNELS: tuple[str, ...] = ("nodes", "bodies", "root_force", "energy", "contacts",
                                  "bending")
 
