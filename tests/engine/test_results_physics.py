@@ -115,15 +115,24 @@ def test_angular_and_linear_momentum_are_conserved_across_frames(closed_run):
     assert e["kinetic"][-1] < e["kinetic"][0], "friction took energy: the contact was real"
 
 
-def test_gravity_energy_matches_the_live_system_at_every_frame(gravity_run):
-    # Bugs caught: gravity energy of root nodes, of the wrong reference position (x_build
-    # instead of the positions at t = 0), or with the sign of g flipped
+def test_with_gravity_energy_and_momentum_match_the_live_system(gravity_run):
+    # Bugs caught: gravity energy with the sign of g flipped, of root nodes (they ride on the
+    # free plates, so they move), or of bodies left out; and, now that gravity gave the
+    # scene a net momentum p, r x p taken about the origin instead of ``about`` (it differs
+    # by about x p, which vanishes in the closed run where p = 0)
     system, result = gravity_run
     with result.open() as res:
         e = res.energy()
         recorded = {key: res.series(f"energy/{key}") for key in e}
         last = res.energy(frame=-1)
+        file_L = res.angular_momentum(about=ABOUT, frame=-1)
+        file_p = res.linear_momentum(frame=-1)
     live = engine.energies(system)
+    live_L, live_p = engine.angular_momentum(system, ABOUT), engine.linear_momentum(system)
+    assert np.linalg.norm(np.cross(ABOUT, live_p)) > 1e-3 * np.linalg.norm(live_L)
+    # round-off of reordered float64 sums, as in the closed run
+    assert np.allclose(file_L, live_L, rtol=0, atol=1e-12 * np.linalg.norm(live_L))
+    assert np.allclose(file_p, live_p, rtol=0, atol=1e-12 * np.linalg.norm(live_p))
     # bodies fall ~0.15 mm in 5.5 ms: gravity energy ~1e-8 J next to ~3e-5 J of kinetic
     assert abs(recorded["gravity"][-1]) > 1e-10
     for key in ("gravity", "kinetic", "total"):
