@@ -4,6 +4,10 @@ The recorder is generic: the run loop declares its per-frame *channels* (dataset
 per-frame shape and dtype) and its *statics* (arrays written once), then appends one frame at a
 time. The layout is documented in ``docs/results.md``; :mod:`engine.results` is the one reader.
 
+:func:`state_channels` and :func:`state_frame` declare and fill the channels that let a file
+check its own physics (node velocities and spins, body motion codes, masses and inertias as
+statics): ``ResultFile.energy`` / ``angular_momentum`` / ``linear_momentum`` read them.
+
 Killed-run safety (SIGKILL, not power loss)
 -------------------------------------------
 * The file uses the latest HDF5 format and is switched to SWMR (single-writer/multiple-reader)
@@ -313,6 +317,57 @@ class Recorder:
                 self._file.close()
         except Exception:
             pass
+
+
+# ----------------------------------------------------------------------------- state channels
+#: body motion codes of engine.bodies, by code: the static ``bodies/motion_names`` stores them
+#: so that a reader needs no engine import to tell free bodies from fixed ones
+BODY_MOTION_NAMES = ("fixed", "kinematic", "hinge", "free")
+
+
+def state_channels(system) -> tuple[dict, dict]:
+    """Channels and statics (beyond the run loop's own) that make a file's momentum and
+    kinetic / gravity energy computable: channel group ``node_velocities`` (off by default)
+    and, with group ``bodies``, each body's motion code per frame plus its mass properties.
+    ``system`` is an ``engine.build.System``."""
+    want = set(system.scene.run.channels)
+    ch: dict[str, tuple] = {}
+    static: dict[str, np.ndarray] = {}
+    nd, bd = system.nodes, system.bodies
+    n_nodes = nd.x.shape[0]
+    if "node_velocities" in want and n_nodes:
+        ch["nodes/velocities"] = ((n_nodes, 3), "f8")
+        ch["nodes/angular_velocities"] = ((n_nodes, 3), "f8")
+        static["nodes/mass"] = nd.mass
+        static["nodes/rotational_inertia"] = nd.inertia
+        static["nodes/free"] = nd.inv_mass > 0
+        static["nodes/initial_positions"] = nd.x0
+    if "bodies" in want and system.body_names:
+        static["bodies/motion_names"] = np.array(BODY_MOTION_NAMES)
+        for k, name in enumerate(system.body_names):
+            ch[f"bodies/{name}/motion"] = ((), "i1")
+            static[f"bodies/{name}/mass"] = np.float64(bd.mass[k])
+            static[f"bodies/{name}/principal_inertia"] = bd.Ip[k]
+            static[f"bodies/{name}/initial_position"] = bd.pos0[k]
+            static[f"bodies/{name}/hinge_axis"] = bd.hinge_axis[k]
+            static[f"bodies/{name}/hinge_inertia"] = np.float64(bd.hinge_inertia[k])
+    if static:
+        static["gravity"] = np.asarray(system.tables.gravity, float)
+    return ch, static
+
+
+def state_frame(system, channels) -> dict:
+    """This frame's rows of the channels :func:`state_channels` declared."""
+    fr: dict[str, Any] = {}
+    if "nodes/velocities" in channels:
+        fr["nodes/velocities"] = system.nodes.v
+        fr["nodes/angular_velocities"] = system.nodes.w
+    motion = system.bodies.motion
+    for k, name in enumerate(system.body_names):
+        key = f"bodies/{name}/motion"
+        if key in channels:
+            fr[key] = np.int8(motion[k])
+    return fr
 
 
 def error_dict(exc: BaseException) -> dict:

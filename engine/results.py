@@ -6,6 +6,11 @@ writing, and files whose writer was killed; it only ever returns the first ``n_f
     with open_result("run.h5") as r:
         t = r.time
         f = r.series("brushes/main/root_force")   # (n_frames, 3)
+        L = r.angular_momentum(about=(0, 0, 0))  # (n_frames, 3), needs "node_velocities"
+
+Physics from a file (``energy``, ``kinetic_energy``, ``angular_momentum``, ``linear_momentum``)
+follows ``engine.energies`` / ``engine.angular_momentum`` / ``engine.linear_momentum`` of the
+live system term by term; see "Physics from a file" in ``docs/results.md``.
 """
 from __future__ import annotations
 
@@ -18,6 +23,22 @@ import numpy as np
 
 from .errors import BrushStudioError
 from .recorder import FORMAT, FORMAT_VERSION
+
+ENERGY_KEYS = ("kinetic", "bond", "contact", "gravity", "dissipated", "external_work", "total")
+
+
+class MissingChannelError(BrushStudioError, LookupError):
+    """A quantity needs a channel group the file does not have. ``group`` is the name to add
+    to the scene's ``run.channels``; ``dataset`` the missing dataset path."""
+
+    def __init__(self, path, quantity: str, group: str, dataset: str):
+        self.group = group
+        self.dataset = dataset
+        self.quantity = quantity
+        super().__init__(
+            f"{path}: {quantity} needs channel group {group!r} (dataset {dataset!r}), which "
+            f"this file does not have: add \"{group}\" to the scene's run.channels and run "
+            f"it again")
 
 
 def open_result(path) -> "ResultFile":
@@ -257,3 +278,173 @@ class ResultFile:
         if h5py.check_string_dtype(ds.dtype) is not None:
             return np.asarray(ds.asstr()[()], dtype=object)
         return ds[()]
+
+    # ---------------------------------------------------------------- physics
+    # Same terms, same selections (free nodes, free / hinge bodies) as engine.energies,
+    # engine.angular_momentum and engine.linear_momentum of the live System.
+    def kinetic_energy(self, frame=None):
+        """Translational + rotational kinetic energy of free nodes and free / hinge bodies, J:
+        a float for frame ``i``, an (n_frames,) array for ``frame=None``. Needs channel
+        groups ``node_velocities`` (if the scene has brushes) and ``bodies`` (if it has
+        bodies)."""
+        sel, one = self._frames(frame)
+        total = np.zeros(self._n_selected(sel))
+        nodes = self._node_state(sel, "kinetic energy", positions=False)
+        if nodes is not None:
+            v, w = nodes["velocity"], nodes["angular_velocity"]
+            total += 0.5 * np.einsum("n,fni,fni->f", nodes["mass"], v, v)
+            total += 0.5 * np.einsum("n,fni,fni->f", nodes["inertia"], w, w)
+        for body in self._body_states(sel, "kinetic energy"):
+            free, hinge = body["free"], body["hinge"]
+            v, w = body["velocity"], body["angular_velocity"]
+            L = _body_angular_momentum(body)
+            total += np.where(free, 0.5 * body["mass"] * np.einsum("fi,fi->f", v, v)
+                              + 0.5 * np.einsum("fi,fi->f", w, L), 0.0)
+            om = w @ body["hinge_axis"]
+            total += np.where(hinge, 0.5 * body["hinge_inertia"] * om * om, 0.0)
+        return float(total[0]) if one else total
+
+    def energy(self, frame=None) -> dict:
+        """The breakdown of ``engine.energies(system)`` at frame ``i`` (floats) or at every
+        frame (``frame=None``: (n_frames,) arrays), J.
+
+        ``kinetic`` and ``gravity`` are computed from the recorded state (node velocities and
+        spins, positions, masses; body velocities, orientations, mass properties): channel
+        groups ``node_velocities``, ``nodes`` and ``bodies``. ``bond``, ``contact``,
+        ``dissipated`` and ``external_work`` cannot be computed from positions (they need the
+        bonds' rest geometry and stiffnesses, the contacts' tangential springs and the run's
+        history) and are the values the run loop recorded in channel group ``energy``.
+        ``total`` is ``kinetic + bond + contact + gravity`` as in ``engine.energies``."""
+        sel, one = self._frames(frame)
+        out = {"kinetic": self.kinetic_energy(frame)}
+        for key in ("bond", "contact", "dissipated", "external_work"):
+            name = f"energy/{key}"
+            if name not in self._channel_names:
+                raise MissingChannelError(self.path, f"the {key} energy", "energy", name)
+            out[key] = self.series(name, sel) if not one else float(self.frame(name, frame))
+        gravity = np.zeros(self._n_selected(sel))
+        nodes = self._node_state(sel, "the gravity energy", velocities=False)
+        if nodes is not None:
+            gravity -= np.einsum("n,fni,i->f", nodes["mass"],
+                                 nodes["position"] - nodes["initial_position"],
+                                 nodes["gravity"])
+        for body in self._body_states(sel, "the gravity energy"):
+            moving = body["free"] | body["hinge"]
+            gravity -= np.where(moving, body["mass"] * ((body["position"]
+                                                         - body["initial_position"])
+                                                        @ body["gravity"]), 0.0)
+        out["gravity"] = float(gravity[0]) if one else gravity
+        out["total"] = out["kinetic"] + out["bond"] + out["contact"] + out["gravity"]
+        return {key: out[key] for key in ENERGY_KEYS}
+
+    def angular_momentum(self, about=(0.0, 0.0, 0.0), frame=None) -> np.ndarray:
+        """Total angular momentum of free nodes (orbital + spin) and free bodies about the
+        point ``about`` (m, world frame), kg m^2/s: (3,) for frame ``i``, (n_frames, 3) for
+        ``frame=None``. Hinge bodies are left out, as in ``engine.angular_momentum`` (their
+        axle takes up angular momentum). Needs channel groups ``nodes`` and
+        ``node_velocities`` (if the scene has brushes) and ``bodies`` (if it has bodies)."""
+        sel, one = self._frames(frame)
+        o = np.asarray(about, float).reshape(3)
+        total = np.zeros((self._n_selected(sel), 3))
+        nodes = self._node_state(sel, "angular momentum")
+        if nodes is not None:
+            p = nodes["mass"][None, :, None] * nodes["velocity"]
+            total += np.cross(nodes["position"] - o, p).sum(axis=1)
+            total += np.einsum("n,fni->fi", nodes["inertia"], nodes["angular_velocity"])
+        for body in self._body_states(sel, "angular momentum"):
+            own = np.cross(body["position"] - o, body["mass"] * body["velocity"])
+            own += _body_angular_momentum(body)
+            total += np.where(body["free"][:, None], own, 0.0)
+        return total[0] if one else total
+
+    def linear_momentum(self, frame=None) -> np.ndarray:
+        """Total linear momentum of free nodes and free bodies, kg m/s: (3,) for frame ``i``,
+        (n_frames, 3) for ``frame=None``. Needs ``node_velocities`` / ``bodies`` as
+        ``kinetic_energy`` does."""
+        sel, one = self._frames(frame)
+        total = np.zeros((self._n_selected(sel), 3))
+        nodes = self._node_state(sel, "linear momentum", positions=False)
+        if nodes is not None:
+            total += np.einsum("n,fni->fi", nodes["mass"], nodes["velocity"])
+        for body in self._body_states(sel, "linear momentum"):
+            total += np.where(body["free"][:, None], body["mass"] * body["velocity"], 0.0)
+        return total[0] if one else total
+
+    def _frames(self, frame):
+        """(selection for ``series``, whether one frame was asked for)."""
+        if frame is None:
+            return slice(None), False
+        if isinstance(frame, slice):
+            return frame, False
+        i = int(frame)
+        n = self.n_frames
+        if not -n <= i < n:
+            raise IndexError(f"frame {frame} out of range: {self.path} has {n} frames")
+        return [i % n], True
+
+    def _n_selected(self, sel) -> int:
+        return len(self.series("time", sel))
+
+    def _need(self, name: str, group: str, quantity: str) -> None:
+        if name not in self._channel_names:
+            raise MissingChannelError(self.path, quantity, group, name)
+
+    def _node_state(self, sel, quantity: str, positions=True, velocities=True):
+        """The free nodes' statics (``mass``, ``inertia``, ``initial_position``,
+        ``gravity``) and, over the selected frames, ``position`` and / or ``velocity`` and
+        ``angular_velocity`` as asked; None if the scene has no nodes."""
+        if not self.json_attr("brush_names", []):
+            return None
+        # the statics come with the velocities (channel group node_velocities)
+        self._need("nodes/velocities", "node_velocities", quantity)
+        if positions:
+            self._need("nodes/positions", "nodes", quantity)
+        free = np.asarray(self.static("nodes/free"), bool)
+        out = {"mass": self.static("nodes/mass")[free],
+               "inertia": self.static("nodes/rotational_inertia")[free],
+               "initial_position": self.static("nodes/initial_positions")[free],
+               "gravity": np.asarray(self.static("gravity"), float)}
+        if positions:
+            out["position"] = self.series("nodes/positions", sel)[:, free]
+        if velocities:
+            out["velocity"] = self.series("nodes/velocities", sel)[:, free]
+            out["angular_velocity"] = self.series("nodes/angular_velocities", sel)[:, free]
+        return out
+
+    def _body_states(self, sel, quantity: str) -> list[dict]:
+        """Per body: its recorded state over the selected frames, its mass properties, and
+        boolean (frames,) masks ``free`` / ``hinge`` from its motion code at each frame."""
+        out = []
+        for name in self.json_attr("body_names", []):
+            self._need(f"bodies/{name}/position", "bodies", quantity)
+            self._need(f"bodies/{name}/motion", "bodies", quantity)
+            motion_names = [str(n) for n in self.static("bodies/motion_names")]
+            code = self.series(f"bodies/{name}/motion", sel)
+            body = {key: self.series(f"bodies/{name}/{key}", sel) for key in (
+                "position", "orientation", "velocity", "angular_velocity")}
+            for key in ("mass", "principal_inertia", "initial_position", "hinge_axis",
+                        "hinge_inertia"):
+                body[key] = np.asarray(self.static(f"bodies/{name}/{key}"), float)
+            body["gravity"] = np.asarray(self.static("gravity"), float)
+            body["free"] = code == motion_names.index("free")
+            body["hinge"] = code == motion_names.index("hinge")
+            out.append(body)
+        return out
+
+
+def _rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """(F, 4) unit quaternions [w, x, y, z] -> (F, 3, 3) rotation matrices (body -> world)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], axis=1)
+
+
+def _body_angular_momentum(body: dict) -> np.ndarray:
+    """World-frame spin angular momentum R diag(I_p) R^T w of a body, (F, 3): the engine
+    integrates this L and derives w from it, so this recovers it to round-off."""
+    R = _rotation_matrices(body["orientation"])
+    in_body = np.einsum("fji,fj->fi", R, body["angular_velocity"])
+    return np.einsum("fij,fj->fi", R, body["principal_inertia"] * in_body)

@@ -18,7 +18,7 @@ import numpy as np
 from .bodies import FREE, HINGE
 from .build import System, grow_lists
 from .errors import InstabilityError
-from .recorder import Recorder
+from .recorder import Recorder, state_channels, state_frame
 from .rotations import quat_to_matrix
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
                     ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
@@ -100,6 +100,9 @@ def _channels(system: System) -> tuple[dict, dict]:
     if "bending" in want and system.bonds.i.shape[0]:
         ch["bonds/bending_moment"] = ((system.bonds.i.shape[0],), "f4")
         static.setdefault("bonds/nodes", np.stack([system.bonds.i, system.bonds.j], axis=1))
+    extra_ch, extra_static = state_channels(system)  # velocities, spins, mass properties
+    ch.update(extra_ch)
+    static.update(extra_static)
     return ch, static
 
 
@@ -219,6 +222,7 @@ def _frame(system: System, channels: dict) -> dict:
         fr["contacts/body_body"] = int(system.acc[ACC_N_BODYBODY])
     if "bonds/bending_moment" in channels:
         fr["bonds/bending_moment"] = bending_moments(system).astype(np.float32)
+    fr.update(state_frame(system, channels))
     return fr
 
 

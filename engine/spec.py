@@ -335,7 +335,9 @@ class Environment(_Model):
                             "inertia, and dt grows; the dynamics are then not physical")
 
 
-Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending"]
+Channel = Literal["nodes", "bodies", "root_force", "energy", "contacts", "bending",
+                  "node_velocities"]
+#: the default: every channel but ``node_velocities`` (it doubles the nodes' share of a file)
 ALL_CHANNELS: tuple[str, ...] = ("nodes", "bodies", "root_force", "energy", "contacts",
                                  "bending")
 
