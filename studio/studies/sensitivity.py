@@ -17,9 +17,9 @@ The uncertain parameters and their ranges (seed 4.2, DESIGN §4):
 (the others nominal): 1 + 2 x 5 runs per scene. ``montecarlo`` draws every parameter
 uniformly from its range at once (``--seed``, reproducible: a restart draws the same
 samples) and reports the mean ± std of the force per depth and phase (like seed fig. 4.18).
-Both run the hold-until-steady wedge protocol (:mod:`studio.studies.wedge`); the defaults
-are reduced so that they fit a small machine: sensitivity to 10 mm, montecarlo to 5 mm with
-5 nodes per bristle (``--depth-mm``, ``--nodes`` change that; the seed went to 33 mm).
+Both run the wedge protocol (:mod:`studio.studies.wedge`, quasi-static by default): sensitivity
+to 10 mm, montecarlo at the scene's own resolution and full depth (33 mm and back in the
+presets, as the seed did); ``--depth-mm`` and ``--nodes`` change that.
 """
 from __future__ import annotations
 
@@ -144,7 +144,7 @@ def add_parser(sub) -> None:
                            "(seed fig. 4.18)",
         description="Draw every uncertain parameter uniformly from its range, run the wedge "
                     "protocol for each sample and report mean +- std of the force per depth. "
-                    "Defaults reduced for a small machine: 5 mm depth, 5 nodes per bristle. "
+                    "Default: the scene's resolution and full depth (the seed's 33 mm). "
                     "Writes montecarlo.csv, samples.csv, montecarlo.png, study.json and one "
                     "HDF5 per sample.")
     m.add_argument("--samples", type=int, default=100, metavar="N",
@@ -313,7 +313,7 @@ def cmd_montecarlo(args) -> int:
               file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        scenes = _prepare(args, 5.0, 5)
+        scenes = _prepare(args, None, None)
         samples = draw_samples(args.samples, args.seed)
         specs = []
         for rid, scene, src in scenes:
@@ -325,8 +325,12 @@ def cmd_montecarlo(args) -> int:
                     "scene": rid, "sample": i, "seed": args.seed, "values": values,
                     "angle_deg": wedge_angle_deg(sc), "source": src, "protocol": proto},
                     TASK))
+        p0 = specs[0].params["protocol"]
+        nodes = sorted({b["n_nodes"] for s in specs for b in s.scene["brushes"]})
         print(f"Monte Carlo: {len(scenes)} scene(s) x {args.samples} samples (seed "
-              f"{args.seed}), to {args.depth_mm:g} mm, {args.nodes} nodes per bristle")
+              f"{args.seed}), to {p0['n_steps'] * p0['step'] * 1e3:g} mm"
+              f"{' and back' if p0['unload'] else ''}, {'/'.join(map(str, nodes))} nodes "
+              f"per bristle, {p0['method'].replace('_', '-')} method")
         t0 = time.perf_counter()
         outcomes = _run(specs, args, "Monte Carlo samples")
     except StudyInputError as exc:

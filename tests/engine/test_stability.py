@@ -116,8 +116,10 @@ def test_non_watertight_mesh(runner, tmp_path):
 # Energy: with no friction, damping or gravity, total + dissipated - external work is
 # constant in exact arithmetic. Leapfrog keeps the bonds' energy error bounded (a single
 # bristle: flat to 1e-5 over 1e6 steps), but each contact that switches on or off between
-# steps adds an O((omega dt)^2) error, so collisions accumulate a small drift: measured 1.3 %
-# after 1e5 steps and 5.5 % after 1e6 steps at the automatic dt (docs/stability.md).
+# steps adds an O((omega dt)^2) error, so collisions accumulate a small drift: measured 3.3 %
+# after 1e5 steps and 6.2 % after 1e6 steps at the automatic dt of 2.77e-5 s (1.3 % and 5.5 %
+# at the 1.70e-5 s of the budget that also charged frictionless contacts a torque on the
+# node's rotation: the same steps now span 1.6x the time, with 2.6x the error per switch).
 def _energy_drift(outcome) -> tuple[float, int]:
     with engine.open_result(outcome.output) as res:
         t = res.time
@@ -133,7 +135,7 @@ def test_long_run_energy_drift_quick(runner, tmp_path):
     assert out.stable
     drift, steps = _energy_drift(out)
     assert steps == 100_000
-    assert drift < 0.03  # 1.3 % measured (see above), x2 margin
+    assert drift < 0.06  # 3.3 % measured (see above), about x2 margin
 
 
 @pytest.mark.slow
@@ -142,7 +144,7 @@ def test_long_run_energy_drift_1e6_steps(runner, tmp_path):
     assert out.stable
     drift, steps = _energy_drift(out)
     assert steps == 1_000_000
-    assert drift < 0.10  # 5.5 % measured (see above); a blow-up would be orders larger
+    assert drift < 0.10  # 6.2 % measured (see above); a blow-up would be orders larger
 
 
 # ----------------------------------------------------------------------------- full size
