@@ -160,3 +160,47 @@ def cantilever_frequencies(length: float, youngs_modulus: float, second_moment: 
     bl = cantilever_beta_l(n_modes)
     return bl ** 2 / (2.0 * math.pi) * math.sqrt(
         youngs_modulus * second_moment / (density * area * length ** 4))
+
+
+# ------------------------------------------------------------------------------ contacts
+def restitution_damping_ratio(restitution: float) -> float:
+    """Damping ratio zeta of a linear spring-dashpot whose free (attractive-allowed) contact
+    rebounds with coefficient e: e = exp(-zeta pi / sqrt(1 - zeta^2)) solved for zeta."""
+    le = math.log(restitution)
+    return -le / math.sqrt(math.pi ** 2 + le * le)
+
+
+def nonattractive_dashpot_restitution(damping_ratio: float) -> float:
+    """Rebound speed ratio of a mass hitting a wall through a linear spring-dashpot whose
+    force is never attractive, F = max(0, k x + c x'), c = 2 zeta sqrt(k m).
+
+    In units m = k = 1 and unit impact speed, x'' = -(x + 2 zeta x') from x = 0, x' = 1
+    until the force k x + c x' falls to zero (after which it stays clipped at zero and the
+    mass leaves at constant speed), integrated with scipy ``solve_ivp`` (DOP853, rtol 1e-12).
+    Returns |x'| at that instant."""
+    from scipy.integrate import solve_ivp
+
+    def force(_t, y):
+        return y[0] + 2.0 * damping_ratio * y[1]
+
+    force.terminal = True
+    force.direction = -1
+    sol = solve_ivp(lambda _t, y: [y[1], -(y[0] + 2.0 * damping_ratio * y[1])],
+                    (0.0, 4.0 * math.pi), [0.0, 1.0], method="DOP853", events=force,
+                    rtol=1e-12, atol=1e-14)
+    assert sol.t_events[0].size == 1, "the contact did not end"
+    return float(-sol.y_events[0][0][1])
+
+
+# ------------------------------------------------------------------------------ hinge
+def hinge_spin_down(omega0: float, k1: float, k2: float, t: np.ndarray) -> np.ndarray:
+    """Closed-form solution of d(omega)/dt = -k1 omega - k2 sign(omega) from omega0 > 0:
+    omega = (omega0 + k2/k1) exp(-k1 t) - k2/k1 until it reaches zero at
+    t* = ln(1 + k1 omega0 / k2) / k1, and zero after (k1 -> 0: omega0 - k2 t)."""
+    t = np.asarray(t, float)
+    if k1 > 0.0:
+        a = k2 / k1
+        w = (omega0 + a) * np.exp(-k1 * t) - a
+    else:
+        w = omega0 - k2 * t
+    return np.maximum(w, 0.0)
