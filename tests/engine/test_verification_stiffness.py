@@ -314,7 +314,7 @@ def test_sphere_on_plate_rebounds_as_the_nonattractive_dashpot(tmp_path, restitu
     (half), or the reduced mass of a free-fixed pair taken as m / 2."""
     measured = _bounce(tmp_path, restitution)
     ref = analytic.nonattractive_dashpot_restitution(
-        analytic.restitution_damping_ratio(restitution))
+        engine.contact_law.restitution_damping_ratio(restitution))
     # 1 %: the step resolves the contact with omega dt = 0.005; the contact's start and end
     # fall between steps (measured: +0.11 % at e = 0.3 here, -0.5 % at twice the step);
     # a factor 2 in zeta or c
@@ -322,14 +322,25 @@ def test_sphere_on_plate_rebounds_as_the_nonattractive_dashpot(tmp_path, restitu
     assert measured == pytest.approx(ref, rel=0.01)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the dashpot's zeta comes from the closed form of an attractive-allowed contact, but the "
-    "engine clips the normal force at zero, so the realised restitution exceeds the scene's "
-    "(0.550 for 0.5, 0.397 for 0.3)"))
-def test_sphere_on_plate_rebounds_with_the_scene_restitution(tmp_path):
+@pytest.mark.parametrize("restitution", [0.3, 0.5])
+def test_sphere_on_plate_rebounds_with_the_scene_restitution(tmp_path, restitution):
     """docs: ContactPair.restitution is 'the normal coefficient of restitution'; a user
-    reads v_out / v_in = e. Fails today by +10 % at e = 0.5 (see the xfail reason)."""
-    assert _bounce(tmp_path, 0.5) == pytest.approx(0.5, rel=0.01)
+    reads v_out / v_in = e. With the classical zeta of an attractive-allowed dashpot the
+    clipped contact rebounded at 0.550 for 0.5 and 0.397 for 0.3 (the bug this catches);
+    1 %: the step's resolution of the contact, as above."""
+    assert _bounce(tmp_path, restitution) == pytest.approx(restitution, rel=0.01)
+
+
+@pytest.mark.parametrize("zeta", [0.05, 0.3, 0.7, 0.999, 1.0, 1.5, 4.0])
+def test_clipped_restitution_closed_form_matches_the_integrated_law(zeta):
+    """engine.contact_law.clipped_restitution (closed form, both damping regimes) against
+    scipy's integration of the same clipped law; 1e-9: the integrator's rtol 1e-12 over one
+    contact. Catches a wrong end-of-contact condition (x = 0 instead of k x + c v = 0 gives
+    the classical, smaller e) or a wrong overdamped branch."""
+    from engine.contact_law import clipped_restitution
+
+    assert clipped_restitution(zeta) == pytest.approx(
+        analytic.nonattractive_dashpot_restitution(zeta), rel=1e-9)
 
 
 # ------------------------------------------------------------------------------ 5. bond damping
