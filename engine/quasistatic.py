@@ -96,7 +96,7 @@ def lowest_bristle_period(scene) -> float:
 def settle(system, *, force_tolerance: float | Callable[[object], float],
            kinetic_tolerance: float | Callable[[float], float], max_steps: int,
            check_every: int, on_check: Optional[Callable[[object, Balance], None]] = None,
-           cancel=None) -> Settled:
+           cancel=None, kinetic_damping: bool = False) -> Settled:
     """Advance ``system`` in chunks of ``check_every`` steps until the out-of-balance force
     and the kinetic energy are both below their tolerances (see the module docstring), or
     ``max_steps`` have been done. A tolerance may be a callable: ``force_tolerance(system)``
@@ -108,6 +108,8 @@ def settle(system, *, force_tolerance: float | Callable[[object], float],
         raise ValueError("check_every must be >= 1 and max_steps >= 0")
     steps = 0
     bal = balance(system)
+    last_kinetic = bal.kinetic
+    rising = False
     while steps < max_steps:
         if cancel is not None and cancel.is_set():
             raise KeyboardInterrupt("cancelled")
@@ -115,6 +117,14 @@ def settle(system, *, force_tolerance: float | Callable[[object], float],
         run_steps(system, n)
         steps += n
         bal = balance(system)
+        if kinetic_damping and rising and bal.kinetic < last_kinetic:
+            # the kinetic energy rose, then fell: it peaked since the last check, where the
+            # dominant mode passed its equilibrium; stopping every node there leaves the
+            # least energy behind (kinetic damping)
+            _stop_nodes(system)
+            bal = Balance(bal.out_of_balance, 0.0)
+        rising = bal.kinetic > last_kinetic
+        last_kinetic = bal.kinetic
         if on_check is not None:
             on_check(system, bal)
         f_tol = force_tolerance(system) if callable(force_tolerance) else force_tolerance
@@ -148,3 +158,10 @@ def commit_slip(system) -> None:
         run_steps(system, 1)
     finally:
         freeze_slip(system, True)
+
+
+def _stop_nodes(system) -> None:
+    nd = system.nodes
+    free = nd.inv_mass > 0
+    nd.v[free] = 0.0
+    nd.w[free] = 0.0
