@@ -24,7 +24,7 @@ import math
 
 from numba import njit, prange
 
-from .rotations import qexp, qlog, qmul, qrot, qrot_inv
+from .rotations import qmul, qrot, qrot_inv
 
 
 PARALLEL_MIN = 4096  # below this many items a loop runs serially: no thread-pool latency
@@ -156,19 +156,6 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, 
 
 
 @njit(cache=True, inline="always")
-def _jac_terms(theta2):
-    """Coefficients of the SO(3) Jacobians for a rotation vector of squared angle theta2:
-    c_inv for J^-1 = I -+ 1/2 W + c_inv W^2, and a1, a2 for J = I +- a1 W + a2 W^2."""
-    if theta2 < 1e-8:
-        return 1.0 / 12.0 + theta2 / 720.0, 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
-    th = math.sqrt(theta2)
-    sn = math.sin(th)
-    cs = math.cos(th)
-    return (1.0 / theta2 - (1.0 + cs) / (2.0 * th * sn), (1.0 - cs) / theta2,
-            (th - sn) / (theta2 * th))
-
-
-@njit(cache=True, inline="always")
 def _cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
@@ -188,8 +175,23 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     qiw, qix, qiy, qiz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
     qjw, qjx, qjy, qjz = q[j, 0], q[j, 1], q[j, 2], q[j, 3]
     rw, rx, ry, rz = qmul(qiw, -qix, -qiy, -qiz, qjw, qjx, qjy, qjz)
-    px, py, pz = qlog(rw, rx, ry, rz)
-    hw, hx, hy, hz = qexp(0.5 * px, 0.5 * py, 0.5 * pz)
+    # phi = log(r) as in rotations.qlog; r = (cos(|phi|/2), sin(|phi|/2) phi/|phi|) also
+    # gives every sine and cosine below without calling sin or cos
+    if rw < 0.0:
+        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    vn2 = rx * rx + ry * ry + rz * rz
+    vn = math.sqrt(vn2)
+    if vn < 1e-12:
+        px, py, pz = 2.0 * rx, 2.0 * ry, 2.0 * rz
+    else:
+        fl = 2.0 * math.atan2(vn, rw) / vn
+        px, py, pz = fl * rx, fl * ry, fl * rz
+    # exp(phi / 2) = sqrt(r): (1 + rw, r_vec) normalised (half-angle formula; rw >= 0)
+    hn = 1.0 / math.sqrt((1.0 + rw) * (1.0 + rw) + vn2)
+    hw = (1.0 + rw) * hn
+    hx = rx * hn
+    hy = ry * hn
+    hz = rz * hn
     mw, mx, my, mz = qmul(qiw, qix, qiy, qiz, hw, hx, hy, hz)
     r0 = x[j, 0] - x[i, 0]
     r1 = x[j, 1] - x[i, 1]
@@ -215,9 +217,26 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     Fz += sz
     # rotation derivatives: tau_i = R_m g + R_j Jl^-1(phi) [m - 1/2 Jl(phi/2) g],
     #                       tau_j = R_i Jr^-1(phi) [1/2 Jl(phi/2) g - m]
+    # coefficients of the SO(3) Jacobians of a rotation vector with squared angle th2:
+    # c_inv for J^-1 = I -+ 1/2 W + c_inv W^2 (of phi) and a1, a2 for J = I +- a1 W + a2 W^2
+    # (of phi / 2); Taylor series at small angles, else the sines and cosines from r
     th2 = px * px + py * py + pz * pz
-    c_inv, _a1, _a2 = _jac_terms(th2)
-    _c, a1, a2 = _jac_terms(0.25 * th2)
+    if th2 < 1e-8:
+        c_inv = 1.0 / 12.0 + th2 / 720.0
+    else:
+        # 1/th^2 - (1 + cos th) / (2 th sin th), and (1 + cos th) / sin th = cot(th / 2)
+        c_inv = 1.0 / th2 - rw / (2.0 * math.sqrt(th2) * vn)
+    h2 = 0.25 * th2
+    if h2 < 1e-8:
+        a1 = 0.5 - h2 / 24.0
+        a2 = 1.0 / 6.0 - h2 / 120.0
+    else:
+        inr = 1.0 / math.sqrt(rw * rw + vn2)
+        sn = vn * inr      # sin(|phi| / 2)
+        cs_ = rw * inr     # cos(|phi| / 2)
+        hth = math.sqrt(h2)
+        a1 = sn * sn / ((1.0 + cs_) * h2)   # (1 - cos) / h2 without cancellation
+        a2 = (hth - sn) / (h2 * hth)
     hpx = 0.5 * px
     hpy = 0.5 * py
     hpz = 0.5 * pz
