@@ -61,23 +61,9 @@ def _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt):
         w[n, 0] = w0
         w[n, 1] = w1
         w[n, 2] = w2
-        ew, ex, ey, ez = _step_qexp(dt * w0, dt * w1, dt * w2)
+        ew, ex, ey, ez = qexp(dt * w0, dt * w1, dt * w2)
         nw, nx, ny, nz = qmul(ew, ex, ey, ez, q[n, 0], q[n, 1], q[n, 2], q[n, 3])
         q[n, 0], q[n, 1], q[n, 2], q[n, 3] = qnormalize(nw, nx, ny, nz)
-
-
-@njit(cache=True, inline="always")
-def _step_qexp(rx, ry, rz):
-    """``qexp`` for the rotation of one step: below 1e-2 rad (all but violent steps) the
-    Taylor series of cos(a/2) and sin(a/2)/a to a^8, exact to round-off there (the next
-    terms are below 1e-22), without calling sin and cos."""
-    a2 = rx * rx + ry * ry + rz * rz
-    if a2 >= 1e-4:
-        return qexp(rx, ry, rz)
-    u = 0.25 * a2  # (a/2)^2
-    c = 1.0 - u / 2.0 * (1.0 - u / 12.0 * (1.0 - u / 30.0 * (1.0 - u / 56.0)))
-    s = 0.5 * (1.0 - u / 6.0 * (1.0 - u / 20.0 * (1.0 - u / 42.0 * (1.0 - u / 72.0))))
-    return (c, s * rx, s * ry, s * rz)
 
 
 @njit(cache=True, parallel=True)
