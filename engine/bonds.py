@@ -186,12 +186,19 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     else:
         fl = 2.0 * math.atan2(vn, rw) / vn
         px, py, pz = fl * rx, fl * ry, fl * rz
-    # exp(phi / 2) = sqrt(r): (1 + rw, r_vec) normalised (half-angle formula; rw >= 0)
-    hn = 1.0 / math.sqrt((1.0 + rw) * (1.0 + rw) + vn2)
-    hw = (1.0 + rw) * hn
-    hx = rx * hn
-    hy = ry * hn
-    hz = rz * hn
+    # exp(phi / 2) = sqrt(r): (1 + rw, r_vec) normalised (half-angle formula; rw >= 0);
+    # below 1e-8 rad the series of rotations.qexp, which needs no square root
+    if vn2 < 1e-16:
+        hw = 1.0 - vn2 / 8.0
+        hx = 0.5 * rx
+        hy = 0.5 * ry
+        hz = 0.5 * rz
+    else:
+        hn = 1.0 / math.sqrt((1.0 + rw) * (1.0 + rw) + vn2)
+        hw = (1.0 + rw) * hn
+        hx = rx * hn
+        hy = ry * hn
+        hz = rz * hn
     mw, mx, my, mz = qmul(qiw, qix, qiy, qiz, hw, hx, hy, hz)
     r0 = x[j, 0] - x[i, 0]
     r1 = x[j, 1] - x[i, 1]
