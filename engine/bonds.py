@@ -24,10 +24,11 @@ import math
 
 from numba import njit, prange
 
-from .rotations import qexp, qlog, qmul, qrot, qrot_inv
+from .rotations import qmul, qrot, qrot_inv
 
 
 PARALLEL_MIN = 4096  # below this many items a loop runs serially: no thread-pool latency
+NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 
 @njit(cache=True, parallel=True)
@@ -36,7 +37,8 @@ def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     """Per-bond force on node i (``bf``; node j gets ``-bf``) and torques on i and j.
 
     Writes elastic energy (``benergy``), dissipated energy of this step (``bdiss``) and the
-    bending-moment magnitude (``bbend``) when ``want_energy``.
+    bending-moment magnitude (``bbend``) when ``want_energy``. The step loop uses the fused
+    ``bond_node_forces``; this per-bond form serves energy evaluations outside it.
     """
     nb = bi.shape[0]
     if nb >= PARALLEL_MIN:
@@ -50,16 +52,107 @@ def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
 
 
 @njit(cache=True, inline="always")
-def _jac_terms(theta2):
-    """Coefficients of the SO(3) Jacobians for a rotation vector of squared angle theta2:
-    c_inv for J^-1 = I -+ 1/2 W + c_inv W^2, and a1, a2 for J = I +- a1 W + a2 W^2."""
-    if theta2 < 1e-8:
-        return 1.0 / 12.0 + theta2 / 720.0, 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
-    th = math.sqrt(theta2)
-    sn = math.sin(th)
-    cs = math.cos(th)
-    return (1.0 / theta2 - (1.0 + cs) / (2.0 * th * sn), (1.0 - cs) / theta2,
-            (th - sn) / (theta2 * th))
+def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
+          bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
+    Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz = _bond_eval(
+        b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy, bdiss, bbend,
+        damped, want_energy, dt)
+    bf[b, 0] = Fx
+    bf[b, 1] = Fy
+    bf[b, 2] = Fz
+    bti[b, 0] = Tix
+    bti[b, 1] = Tiy
+    bti[b, 2] = Tiz
+    btj[b, 0] = Tjx
+    btj[b, 1] = Tjy
+    btj[b, 2] = Tjz
+
+
+@njit(cache=True, parallel=True)
+def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+                     bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
+    """Set each node's force and torque to the sum of its (at most two) bonds' actions:
+    ``bond_forces`` and ``gather_bond_forces`` in one pass, without the per-bond arrays.
+
+    Nodes are taken in chunks; within a chunk each bond is evaluated once, as the next bond
+    of its node i, and its action on node j is carried to j (the node after i on the
+    bristle). A chunk's first node re-evaluates its previous bond (nothing is shared between
+    chunks, so chunks run in parallel race-free). The sums are taken in the same order as
+    the gather, so the result equals ``bond_forces`` + ``gather_bond_forces`` exactly. This
+    is the first force stage of a step: it overwrites ``f`` and ``t``. Energies (written
+    when ``want_energy``) are written by the evaluation as a next bond only.
+    """
+    n = f.shape[0]
+    if n >= PARALLEL_MIN:
+        nchunk = (n + NODE_CHUNK - 1) // NODE_CHUNK
+        for c in prange(nchunk):
+            _bond_chunk(c * NODE_CHUNK, min(n, (c + 1) * NODE_CHUNK), x, v, q, w, bi, bj, kn,
+                        ks, kb, kt, L0, cn, cs, cb, ct, bond_prev, bond_next, f, t, benergy,
+                        bdiss, bbend, damped, want_energy, dt)
+    else:
+        _bond_chunk(0, n, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+                    bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt)
+
+
+@njit(cache=True, inline="always")
+def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+                bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
+    last = -1          # the bond evaluated as the previous node's next bond ...
+    cFx = 0.0          # ... its force on node i and its torque on node j
+    cFy = 0.0
+    cFz = 0.0
+    cTx = 0.0
+    cTy = 0.0
+    cTz = 0.0
+    for k in range(n0, n1):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        bn_ = bond_next[k]
+        nFx = 0.0
+        nFy = 0.0
+        nFz = 0.0
+        nTx = 0.0
+        nTy = 0.0
+        nTz = 0.0
+        if bn_ >= 0:
+            nFx, nFy, nFz, Tix, Tiy, Tiz, nTx, nTy, nTz = _bond_eval(
+                bn_, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy, bdiss,
+                bbend, damped, want_energy, dt)
+            fx += nFx
+            fy += nFy
+            fz += nFz
+            tx += Tix
+            ty += Tiy
+            tz += Tiz
+        bp = bond_prev[k]
+        if bp >= 0:
+            if bp != last:
+                cFx, cFy, cFz, _x, _y, _z, cTx, cTy, cTz = _bond_eval(
+                    bp, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy,
+                    bdiss, bbend, damped, False, dt)
+            fx -= cFx
+            fy -= cFy
+            fz -= cFz
+            tx += cTx
+            ty += cTy
+            tz += cTz
+        f[k, 0] = fx
+        f[k, 1] = fy
+        f[k, 2] = fz
+        t[k, 0] = tx
+        t[k, 1] = ty
+        t[k, 2] = tz
+        last = bn_
+        cFx = nFx
+        cFy = nFy
+        cFz = nFz
+        cTx = nTx
+        cTy = nTy
+        cTz = nTz
 
 
 @njit(cache=True, inline="always")
@@ -68,9 +161,10 @@ def _cross(ax, ay, az, bx, by, bz):
 
 
 @njit(cache=True, inline="always")
-def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
-          bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
-    """One bond. Energy U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2)
+def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
+               benergy, bdiss, bbend, damped, want_energy, dt):
+    """One bond: returns the force on node i (node j gets its negative) and the torques on
+    i and j. Energy U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2)
     + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with d = R_m^T r the bond vector in the
     midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
     exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
@@ -81,8 +175,30 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     qiw, qix, qiy, qiz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
     qjw, qjx, qjy, qjz = q[j, 0], q[j, 1], q[j, 2], q[j, 3]
     rw, rx, ry, rz = qmul(qiw, -qix, -qiy, -qiz, qjw, qjx, qjy, qjz)
-    px, py, pz = qlog(rw, rx, ry, rz)
-    hw, hx, hy, hz = qexp(0.5 * px, 0.5 * py, 0.5 * pz)
+    # phi = log(r) as in rotations.qlog; r = (cos(|phi|/2), sin(|phi|/2) phi/|phi|) also
+    # gives every sine and cosine below without calling sin or cos
+    if rw < 0.0:
+        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    vn2 = rx * rx + ry * ry + rz * rz
+    vn = math.sqrt(vn2)
+    if vn < 1e-12:
+        px, py, pz = 2.0 * rx, 2.0 * ry, 2.0 * rz
+    else:
+        fl = 2.0 * math.atan2(vn, rw) / vn
+        px, py, pz = fl * rx, fl * ry, fl * rz
+    # exp(phi / 2) = sqrt(r): (1 + rw, r_vec) normalised (half-angle formula; rw >= 0);
+    # below 1e-8 rad the series of rotations.qexp, which needs no square root
+    if vn2 < 1e-16:
+        hw = 1.0 - vn2 / 8.0
+        hx = 0.5 * rx
+        hy = 0.5 * ry
+        hz = 0.5 * rz
+    else:
+        hn = 1.0 / math.sqrt((1.0 + rw) * (1.0 + rw) + vn2)
+        hw = (1.0 + rw) * hn
+        hx = rx * hn
+        hy = ry * hn
+        hz = rz * hn
     mw, mx, my, mz = qmul(qiw, qix, qiy, qiz, hw, hx, hy, hz)
     r0 = x[j, 0] - x[i, 0]
     r1 = x[j, 1] - x[i, 1]
@@ -108,9 +224,26 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     Fz += sz
     # rotation derivatives: tau_i = R_m g + R_j Jl^-1(phi) [m - 1/2 Jl(phi/2) g],
     #                       tau_j = R_i Jr^-1(phi) [1/2 Jl(phi/2) g - m]
+    # coefficients of the SO(3) Jacobians of a rotation vector with squared angle th2:
+    # c_inv for J^-1 = I -+ 1/2 W + c_inv W^2 (of phi) and a1, a2 for J = I +- a1 W + a2 W^2
+    # (of phi / 2); Taylor series at small angles, else the sines and cosines from r
     th2 = px * px + py * py + pz * pz
-    c_inv, _a1, _a2 = _jac_terms(th2)
-    _c, a1, a2 = _jac_terms(0.25 * th2)
+    if th2 < 1e-8:
+        c_inv = 1.0 / 12.0 + th2 / 720.0
+    else:
+        # 1/th^2 - (1 + cos th) / (2 th sin th), and (1 + cos th) / sin th = cot(th / 2)
+        c_inv = 1.0 / th2 - rw / (2.0 * math.sqrt(th2) * vn)
+    h2 = 0.25 * th2
+    if h2 < 1e-8:
+        a1 = 0.5 - h2 / 24.0
+        a2 = 1.0 / 6.0 - h2 / 120.0
+    else:
+        inr = 1.0 / math.sqrt(rw * rw + vn2)
+        sn = vn * inr      # sin(|phi| / 2)
+        cs_ = rw * inr     # cos(|phi| / 2)
+        hth = math.sqrt(h2)
+        a1 = sn * sn / ((1.0 + cs_) * h2)   # (1 - cos) / h2 without cancellation
+        a2 = (hth - sn) / (h2 * hth)
     hpx = 0.5 * px
     hpy = 0.5 * py
     hpz = 0.5 * pz
@@ -169,19 +302,11 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
         if want_energy:
             bdiss[b] = dt * (cs[b] * (lvx * lvx + lvy * lvy) + cn[b] * lvz * lvz
                              + cb[b] * (ox * ox + oy * oy) + ct[b] * oz * oz)
-    bf[b, 0] = Fx
-    bf[b, 1] = Fy
-    bf[b, 2] = Fz
-    bti[b, 0] = Tix
-    bti[b, 1] = Tiy
-    bti[b, 2] = Tiz
-    btj[b, 0] = Tjx
-    btj[b, 1] = Tjy
-    btj[b, 2] = Tjz
     if want_energy:
         benergy[b] = 0.5 * (kn[b] * ez * ez + ks[b] * (dx * dx + dy * dy)
                             + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
         bbend[b] = kb[b] * math.sqrt(px * px + py * py)
+    return Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz
 
 
 @njit(cache=True, parallel=True)

@@ -18,7 +18,7 @@ from numba import njit, objmode, prange
 from .bodies import KINEMATIC, bodies_drift, bodies_half_kick
 from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
                             carry_body_history, scatter_bristle_body)
-from .bonds import PARALLEL_MIN, bond_forces, gather_bond_forces
+from .bonds import PARALLEL_MIN, bond_node_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
 from .rotations import qexp, qmul, qnormalize, qrot
@@ -219,9 +219,13 @@ def predicted_displacement(nd, bd, dt):
         vx = nd.v[n, 0] + 0.5 * dt * nd.f[n, 0] * im
         vy = nd.v[n, 1] + 0.5 * dt * nd.f[n, 1] * im
         vz = nd.v[n, 2] + 0.5 * dt * nd.f[n, 2] * im
-        d = math.sqrt(dx * dx + dy * dy + dz * dz) + dt * math.sqrt(vx * vx + vy * vy + vz * vz)
-        if d > worst:
-            worst = d
+        a = dx * dx + dy * dy + dz * dz
+        c = dt * dt * (vx * vx + vy * vy + vz * vz)
+        # (sqrt(a) + sqrt(c))^2 <= 2 (a + c): most nodes are ruled out without a sqrt
+        if 2.0 * (a + c) > worst * worst:
+            d = math.sqrt(a) + dt * math.sqrt(vx * vx + vy * vy + vz * vz)
+            if d > worst:
+                worst = d
     wb = 0.0
     for k in range(bd.pos.shape[0]):
         if not bd.collide[k]:
@@ -368,10 +372,10 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         last = it == n_steps - 1
         want_energy = fl.track_energy and (last or fl.bond_damping)
         if fl.bonds:
-            bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.kt, bn.L0,
-                        bn.cn, bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss,
-                        bn.bend, fl.bond_damping, want_energy, dt)
-            gather_bond_forces(nd.bond_prev, nd.bond_next, bn.f, bn.ti, bn.tj, nd.f, nd.t)
+            bond_node_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.kt,
+                             bn.L0, bn.cn, bn.cs, bn.cb, bn.ct, nd.bond_prev, nd.bond_next,
+                             nd.f, nd.t, bn.energy, bn.diss, bn.bend, fl.bond_damping,
+                             want_energy, dt)
             if fl.track_energy and fl.bond_damping:
                 acc[ACC_DISSIPATED] += bn.diss.sum()
         else:
