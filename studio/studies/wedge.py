@@ -61,6 +61,7 @@ PROTOCOL_DEFAULTS = {
     "qs_local_damping": 0.5,
     "qs_inertia_scaling": "equalize",
     "qs_kinetic_damping": True,   # stop every node when the kinetic energy has peaked
+    "qs_dt_safety": 0.8,          # run.dt_safety (fraction of the stability bound)
     "qs_checks_per_period": 160,  # balance checks per period of the slowest bristle
     "qs_max_acceleration": 4.0,  # m/s^2, a_m of each increment's parabolic move
     "qs_increments": 1,          # increments per step, each settled and its slip committed
@@ -183,6 +184,8 @@ def make_protocol(scene: dict, *, body: str = "wedge", brush: Optional[str] = No
             raise StudyInputError(f"{k} = {proto[k]}: must be > 0")
     if not 0 <= proto["qs_local_damping"] < 1:
         raise StudyInputError(f"qs_local_damping = {proto['qs_local_damping']}: in [0, 1)")
+    if not 0 < proto["qs_dt_safety"] <= 1:
+        raise StudyInputError(f"qs_dt_safety = {proto['qs_dt_safety']}: in (0, 1]")
     if proto["qs_inertia_scaling"] not in ("none", "equalize"):
         raise StudyInputError("qs_inertia_scaling must be 'none' or 'equalize'")
     if int(proto["qs_increments"]) != proto["qs_increments"]:
@@ -224,6 +227,7 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
         d["environment"].update(
             local_damping=max(p["qs_local_damping"], d["environment"].get("local_damping", 0)),
             inertia_scaling=p["qs_inertia_scaling"])
+        d["run"]["dt_safety"] = p.get("qs_dt_safety", d["run"].get("dt_safety", 0.5))
     system = engine.build(engine.parse_scene(d))
     scratch = h5_path.parent / f".{h5_path.stem}.scratch"
     shutil.rmtree(scratch, ignore_errors=True)
