@@ -36,7 +36,7 @@ _EXPORTS = {
     "save_scene": "spec",
     "build": "build", "System": "build",
     "run": "run", "RunResult": "run", "Progress": "run", "energies": "run",
-    "angular_momentum": "run", "linear_momentum": "run",
+    "angular_momentum": "run", "linear_momentum": "run", "run_steps": "run",
     "open_result": "results", "ResultFile": "results",
     "prescribe_motion": "motion",
     "BrushStudioError": "errors", "SceneError": "errors", "InstabilityError": "errors",
@@ -44,8 +44,8 @@ _EXPORTS = {
 
 __all__ = ["Scene", "SCHEMA_VERSION", "load_scene", "parse_scene", "save_scene", "build",
            "System", "run", "RunResult", "Progress", "open_result", "ResultFile",
-           "prescribe_motion", "energies", "angular_momentum", "linear_momentum", "BrushStudioError",
-           "SceneError", "InstabilityError"]
+           "prescribe_motion", "energies", "angular_momentum", "linear_momentum", "run_steps",
+           "BrushStudioError", "SceneError", "InstabilityError"]
 
 
 def __getattr__(name: str):

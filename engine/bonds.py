@@ -71,14 +71,14 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
 @njit(cache=True, parallel=True)
 def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
                      bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
-    """Set each node's force and torque to the sum of its (at most two) bonds' actions:
-    ``bond_forces`` and ``gather_bond_forces`` in one pass, without the per-bond arrays.
+    """Set each node's force and torque to the sum of its (at most two) bonds' actions, in one
+    pass over nodes, without per-bond arrays.
 
     Nodes are taken in chunks; within a chunk each bond is evaluated once, as the next bond
     of its node i, and its action on node j is carried to j (the node after i on the
     bristle). A chunk's first node re-evaluates its previous bond (nothing is shared between
     chunks, so chunks run in parallel race-free). The sums are taken in the same order as
-    the gather, so the result equals ``bond_forces`` + ``gather_bond_forces`` exactly. This
+    a per-node gather of ``bond_forces``' per-bond actions, so the result equals it exactly. This
     is the first force stage of a step: it overwrites ``f`` and ``t``. Energies (written
     when ``want_energy``) are written by the evaluation as a next bond only.
     """
@@ -307,51 +307,3 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
                             + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
         bbend[b] = kb[b] * math.sqrt(px * px + py * py)
     return Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz
-
-
-@njit(cache=True, parallel=True)
-def gather_bond_forces(bond_prev, bond_next, bf, bti, btj, f, t):
-    """Set each node's force and torque to the sum of its (at most two) bonds' actions.
-
-    This is the first force stage of a step: it overwrites ``f`` and ``t``.
-    """
-    n = f.shape[0]
-    if n >= PARALLEL_MIN:
-        for k in prange(n):
-            _gather(k, bond_prev, bond_next, bf, bti, btj, f, t)
-    else:
-        for k in range(n):
-            _gather(k, bond_prev, bond_next, bf, bti, btj, f, t)
-
-
-@njit(cache=True, inline="always")
-def _gather(k, bond_prev, bond_next, bf, bti, btj, f, t):
-    if True:
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        b = bond_next[k]
-        if b >= 0:
-            fx += bf[b, 0]
-            fy += bf[b, 1]
-            fz += bf[b, 2]
-            tx += bti[b, 0]
-            ty += bti[b, 1]
-            tz += bti[b, 2]
-        b = bond_prev[k]
-        if b >= 0:
-            fx -= bf[b, 0]
-            fy -= bf[b, 1]
-            fz -= bf[b, 2]
-            tx += btj[b, 0]
-            ty += btj[b, 1]
-            tz += btj[b, 2]
-        f[k, 0] = fx
-        f[k, 1] = fy
-        f[k, 2] = fz
-        t[k, 0] = tx
-        t[k, 1] = ty
-        t[k, 2] = tz

@@ -69,12 +69,12 @@ PROTOCOL_DEFAULTS = {
 METHODS = ("quasi_static", "dynamic")
 METHOD_NOTES = {
     "quasi_static": "slip committed per increment (frozen Coulomb trial within it), fast "
-                    "moves, local damping 0.5 and kinetic damping, equalized inertia; holds "
-                    "end on the "
-                    "out-of-balance force and kinetic energy. On the 60 deg wedge (5 nodes, "
-                    "0-10 mm) it matches the dynamic method at a_m 0.1 m/s^2 within 1.3 % "
-                    "from 2 mm on, closer than the dynamic method at a_m 0.4 is to it "
-                    "(docs/studies.md; tests/studies/test_wedge_quasistatic.py)",
+                    "moves, local and kinetic damping, equalized inertia, dt at 0.8 of the "
+                    "bound; holds end on the out-of-balance force and kinetic energy. On the "
+                    "60 deg wedge (5 nodes, 0-10 mm) it matches the dynamic method at a_m "
+                    "0.1 m/s^2 within 2 % from 2 mm on, closer than the dynamic method at "
+                    "a_m 0.4 is to it (docs/studies.md; "
+                    "tests/studies/test_wedge_quasistatic.py)",
     "dynamic": "the seed's protocol in physical time under the scene's damping; its curve "
                "depends on a_m (docs/studies.md)"}
 DEFAULT_PRESET = "wedge_60"

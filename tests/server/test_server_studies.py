@@ -130,8 +130,10 @@ def test_a_tiny_wedge_study_runs_as_a_job_and_its_files_download(server, tmp_pat
 
 def test_a_running_study_is_cancelled(server):
     c = server.client
+    # the seed's dynamic protocol to 20 mm at 8 nodes runs for minutes (the quasi-static
+    # method would finish before the cancel arrives)
     r = c.post("/api/studies", json={"study": "wedge", "options": {
-        "preset": "wedge_60", "depth_mm": 6, "nodes": 4}})
+        "preset": "wedge_60", "depth_mm": 20, "nodes": 8, "method": "dynamic"}})
     assert r.status_code == 201, r.text
     sid = r.json()["id"]
     deadline = time.monotonic() + 300
