@@ -331,8 +331,8 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
     """Run ``specs``, one task per run; outcomes in the order of ``specs``.
 
     ``scheduler``: ``None`` starts a local Dask cluster with ``n_workers`` single-threaded
-    worker processes (default: one per core) and stops it at the end, or, for one worker,
-    runs the tasks one after another in this process (no cluster); ``"tcp://host:port"``
+    worker processes (default: one per core) and stops it at the end, or, for one worker or
+    a single run to do, runs the tasks one after another in this process (no cluster); ``"tcp://host:port"``
     uses an existing scheduler and its workers. Runs already complete in ``out_dir`` (same
     hash) are skipped (``skipped=True``). ``progress`` shows a tqdm bar over runs.
 
@@ -392,7 +392,10 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
         bar.refresh()
 
     try:
-        if todo and scheduler is None and (n_workers or default_workers()) == 1:
+        # one worker, or a single run to do (a cluster would give it one worker anyway):
+        # no cluster, the run in this process
+        if todo and scheduler is None and (len(todo) == 1
+                                           or (n_workers or default_workers()) == 1):
             _run_here(todo, out_dir, bar, n_before, tally, finish)
         elif todo:
             _run_on_dask(todo, out_dir, bar, n_before, finish, scheduler, n_workers)

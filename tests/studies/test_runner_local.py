@@ -95,3 +95,15 @@ def test_ctrl_c_keeps_finished_runs(tiny_scene, tmp_path, monkeypatch):
     again = run_many(specs, out, n_workers=1, progress=False)
     assert [o.skipped for o in again] == [True, False, False]
     assert [o.status for o in again] == ["completed"] * 3
+
+
+def test_a_single_run_starts_no_cluster_whatever_the_workers(tiny_scene, tmp_path,
+                                                            monkeypatch):
+    """One run to do on a local cluster of N workers would use one of them: the runner runs
+    it here instead (the default ``study wedge`` of one preset pays no cluster start-up).
+    Bug caught: the cluster started for a single run (the refusal below fails the test)."""
+    _refuse_dask(monkeypatch)
+    spec = _sweep(tiny_scene)[0]
+    (out,) = run_many([spec], tmp_path / "one", n_workers=2, progress=False)
+    assert out.status == "completed"
+    assert _root_force(out.h5).shape[1] == 3
