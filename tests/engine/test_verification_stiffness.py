@@ -389,6 +389,22 @@ def test_bond_damping_gives_the_log_decrement_of_its_damping_ratio(tmp_path):
 
 
 # ------------------------------------------------------------------------------ 6. hinge
+def _hinge_wheel(omega0: float, k1: float, k2: float, duration: float,
+                 record_interval: float):
+    """An aluminium sphere (r 20 mm) on a hinge about z with eq. 4.6's k1, k2, spinning at
+    omega0 with nothing to touch; dt 1e-4 s."""
+    return engine.parse_scene({
+        "materials": {"al": {"youngs_modulus": 70e9, "density": 2700.0}},
+        "bodies": [{"name": "wheel", "material": "al",
+                    "shape": {"type": "sphere", "radius": 0.02},
+                    "mass_properties": {"density": 2700.0},
+                    "motion": {"type": "hinge", "axis": [0.0, 0.0, 1.0], "k1": k1, "k2": k2},
+                    "angular_velocity": [0.0, 0.0, omega0]}],
+        "run": {"duration": duration, "dt": 1e-4, "record_interval": record_interval,
+                "channels": ["bodies"]},
+    })
+
+
 def test_hinge_spin_down_matches_closed_form(tmp_path):
     """A sphere on a hinge spinning freely (no contacts) with k1 and k2: omega(t) must follow
     (omega0 + k2/k1) exp(-k1 t) - k2/k1 and stop at t* = ln(1 + k1 omega0 / k2) / k1, then
@@ -396,16 +412,7 @@ def test_hinge_spin_down_matches_closed_form(tmp_path):
     and a k2 term that keeps pushing past zero."""
     omega0, k1, k2 = 10.0, 2.0, 5.0
     t_stop = math.log(1.0 + k1 * omega0 / k2) / k1   # 0.80 s
-    scene = engine.parse_scene({
-        "materials": {"al": {"youngs_modulus": 70e9, "density": 2700.0}},
-        "bodies": [{"name": "wheel", "material": "al",
-                    "shape": {"type": "sphere", "radius": 0.02},
-                    "mass_properties": {"density": 2700.0},
-                    "motion": {"type": "hinge", "axis": [0.0, 0.0, 1.0], "k1": k1, "k2": k2},
-                    "angular_velocity": [0.0, 0.0, omega0]}],
-        "run": {"duration": 1.2, "dt": 1e-4, "record_interval": 0.01,
-                "channels": ["bodies"]},
-    })
+    scene = _hinge_wheel(omega0, k1, k2, duration=1.2, record_interval=0.01)
     result = engine.run(engine.build(scene), output=tmp_path / "hinge.h5")
     with engine.open_result(result.path) as res:
         time = np.asarray(res.time)
@@ -428,16 +435,7 @@ def test_fit_dissipation_recovers_k1_k2_from_the_engine_spin_down(tmp_path):
     from studio.studies.dissipation import fit_dissipation
 
     omega0, k1, k2 = 10.0, 2.0, 5.0
-    scene = engine.parse_scene({
-        "materials": {"al": {"youngs_modulus": 70e9, "density": 2700.0}},
-        "bodies": [{"name": "wheel", "material": "al",
-                    "shape": {"type": "sphere", "radius": 0.02},
-                    "mass_properties": {"density": 2700.0},
-                    "motion": {"type": "hinge", "axis": [0.0, 0.0, 1.0], "k1": k1, "k2": k2},
-                    "angular_velocity": [0.0, 0.0, omega0]}],
-        "run": {"duration": 1.0, "dt": 1e-4, "record_interval": 2e-3,
-                "channels": ["bodies"]},
-    })
+    scene = _hinge_wheel(omega0, k1, k2, duration=1.0, record_interval=2e-3)
     result = engine.run(engine.build(scene), output=tmp_path / "spin.h5")
     with engine.open_result(result.path) as res:
         time = np.asarray(res.time)

@@ -8,21 +8,14 @@ import json
 import pytest
 
 import engine
+from sweeps import modulus_sweep
 from studio.studies.runner import RunSpec, failures_text, run_many, run_paths
 
 MODULI = (2.0e6, 2.7e6, 3.5e6)
 
 
 def _sweep(tiny_scene) -> list[RunSpec]:
-    specs = []
-    for i, E in enumerate(MODULI):
-        scene = tiny_scene()
-        scene["materials"]["silicone"]["youngs_modulus"] = E
-        specs.append(RunSpec(f"E{i}", scene, {"youngs_modulus": E}))
-    bad = tiny_scene()
-    bad["brushes"][0]["root_radius"] = -0.001  # the engine refuses it on the worker
-    specs.append(RunSpec("bad", bad, {"youngs_modulus": "broken radius"}))
-    return specs
+    return modulus_sweep(tiny_scene, MODULI)
 
 
 def test_sweep_on_external_dask_cluster(dask_cluster, tiny_scene, tmp_path):

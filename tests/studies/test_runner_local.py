@@ -9,21 +9,14 @@ import pytest
 
 import engine
 from studio.studies import runner
+from sweeps import modulus_sweep
 from studio.studies.runner import RunSpec, failures_text, run_many, run_paths
 
 MODULI = (2.0e6, 3.5e6)
 
 
 def _sweep(tiny_scene) -> list[RunSpec]:
-    specs = []
-    for i, E in enumerate(MODULI):
-        scene = tiny_scene()
-        scene["materials"]["silicone"]["youngs_modulus"] = E
-        specs.append(RunSpec(f"E{i}", scene, {"youngs_modulus": E}))
-    bad = tiny_scene()
-    bad["brushes"][0]["root_radius"] = -0.001  # the engine refuses it in the task
-    specs.append(RunSpec("bad", bad, {"youngs_modulus": "broken radius"}))
-    return specs
+    return modulus_sweep(tiny_scene, MODULI)
 
 
 def _refuse_dask(monkeypatch) -> None:
