@@ -412,7 +412,8 @@ def _quasi_static_steps(system, p: dict, brush: str, body: str, direction, serie
         def force_tolerance(system):
             if zero is None:
                 return p["threshold"]
-            fz = float(root_reactions(system)[brush][0][2])
+            # settle calls sample (on_check) first: the root force of this very state
+            fz = float(series["root_force_z"][-1][-1])
             return max(p["threshold"], p["rel_threshold"] * abs(fz - zero))
 
         steps0, c0 = costs["steps"], time.perf_counter()
