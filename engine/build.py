@@ -861,7 +861,6 @@ def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motio
     count = np.zeros(N, np.int64)
     if n_bristle < 2:
         return count
-    from scipy.spatial import cKDTree
     root, reach = _node_reach(x, rad, nbristle, bristle_first)
     bf = np.asarray(bristle_first, np.int64)
     tips = bf[1:] - 1
@@ -873,10 +872,9 @@ def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motio
     frame = np.array([brushes[b].mount if moving[b] else -1 for b in brush_of], np.int64)
     for f in np.unique(frame):
         members = np.flatnonzero(frame == f)
-        tree = cKDTree(root[bf[members]])
         reach_tip = reach[tips[members]]
         nodes = np.flatnonzero(np.isin(nbristle, members))
-        hits = tree.query_ball_point(root[nodes], reach[nodes] + reach_tip.max())
+        hits = _roots_within(root[bf[members]], root[nodes], reach[nodes] + reach_tip.max())
         for n, h in zip(nodes, hits):
             h = np.asarray(h, np.int64)
             d = np.linalg.norm(root[bf[members[h]]] - root[n], axis=1)
@@ -887,6 +885,19 @@ def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motio
             # another base moves relative to this one: any bristle of it may come
             count[nodes] += others if f >= 0 else int(np.count_nonzero(frame >= 0))
     return count
+
+
+_BRUTE_PAIRS = 1_000_000  # up to this many root-node pairs numpy compares all of them
+
+
+def _roots_within(roots, points, radius):
+    """Per point, the indices of the roots within its radius. A k-d tree for large brushes;
+    small ones compare every pair, which costs less than importing scipy.spatial."""
+    if roots.shape[0] * points.shape[0] > _BRUTE_PAIRS:
+        from scipy.spatial import cKDTree
+        return cKDTree(roots).query_ball_point(points, radius)
+    d2 = ((points[:, None, :] - roots[None, :, :]) ** 2).sum(axis=2)
+    return [np.flatnonzero(row <= r * r) for row, r in zip(d2, radius)]
 
 
 def _body_regions(bodies, after_free):

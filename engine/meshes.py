@@ -12,15 +12,20 @@ in the body frame and the shape's origin sits at ``-com_in_shape`` (the exact sp
 from __future__ import annotations
 
 import math
+import os
+import tempfile
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Union
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
-import trimesh
 
 from . import spec
 from .errors import SceneError
+
+if TYPE_CHECKING:
+    import trimesh
 
 MAX_TRIANGLES = 200_000
 MAX_GRID_CELLS = 64 ** 3
@@ -63,6 +68,7 @@ def _wedge_mesh(shape: spec.WedgeShape) -> trimesh.Trimesh:
     h, half = shape.height, 0.5 * shape.length
     w = h * math.tan(0.5 * shape.angle)
     section = np.array([[0.0, 0.0], [-w, h], [w, h]])
+    import trimesh
     vertices = np.array([[x, y, z] for x in (-half, half) for y, z in section])
     # outward winding (checked by the volume sign in the tests): end caps at -x (0,1,2) and
     # +x (3,5,4), then the three side quads split in two
@@ -78,6 +84,7 @@ def _wedge_mesh(shape: spec.WedgeShape) -> trimesh.Trimesh:
 
 def shape_mesh(shape, field: str = "shape") -> trimesh.Trimesh:
     """The shape as a triangle mesh in its own frame (also used for display)."""
+    import trimesh
     if isinstance(shape, spec.BoxShape):
         return trimesh.creation.box(extents=shape.size)
     if isinstance(shape, spec.SphereShape):
@@ -97,6 +104,7 @@ def load_mesh_file(path: Union[str, Path], scale: float = 1.0,
                    field: str = "shape.file") -> trimesh.Trimesh:
     """Read an STL/OBJ/PLY triangle mesh, times ``scale``. Duplicate vertices are merged;
     degenerate and open meshes are kept (contacts work on any triangle soup)."""
+    import trimesh
     path = Path(path)
     if not path.is_file():
         raise SceneError.single(field, str(path), "must name an existing mesh file "
@@ -129,6 +137,7 @@ def load_mesh_file(path: Union[str, Path], scale: float = 1.0,
 
 def _orient_outwards(mesh: trimesh.Trimesh) -> None:
     """Make the winding consistent and outward where the mesh allows (trimesh's repair)."""
+    import trimesh
     if not mesh.is_winding_consistent:
         trimesh.repair.fix_winding(mesh)
     if mesh.is_watertight and mesh.volume < 0:
@@ -205,7 +214,19 @@ def _n_degenerate(vertices: np.ndarray, triangles: np.ndarray) -> int:
 # --------------------------------------------------------------------------- body
 def body_geometry(body: spec.Body, field: str = "bodies.?") -> BodyGeometry:
     """Geometry, mass properties and contact grid of one body. Raises SceneError naming
-    ``{field}.shape.file`` / ``{field}.mass_properties.*`` on a bad mesh or mass."""
+    ``{field}.shape.file`` / ``{field}.mass_properties.*`` on a bad mesh or mass.
+
+    A body built before is read from the geometry cache (:func:`_cache_key`): trimesh, its
+    import (about half a CPU-second, with scipy) and the mesh processing are then skipped."""
+    key = _cache_key(body)
+    geo = _cache_load(key)
+    if geo is None:
+        geo = _build_geometry(body, field)
+        _cache_store(key, geo)
+    return geo
+
+
+def _build_geometry(body: spec.Body, field: str) -> BodyGeometry:
     mesh = shape_mesh(body.shape, field=f"{field}.shape")
     mass, inertia, com = _mass_properties(body, mesh, field)
     vertices = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64) - com)
@@ -222,6 +243,66 @@ def body_geometry(body: spec.Body, field: str = "bodies.?") -> BodyGeometry:
         watertight=bool(mesh.is_watertight),
         n_degenerate=_n_degenerate(vertices, triangles),
         grid_origin=origin, grid_cell=cell, grid_dims=dims, grid_start=start, grid_tris=tris)
+
+
+# --------------------------------------------------------------------------- cache
+CACHE_ENTRIES = 64  # most recently used geometries kept; each is a few KB to a few MB
+_CACHE_DIR = Path(__file__).parent / "__pycache__" / "geometry"
+
+
+def _cache_key(body: spec.Body):
+    """What a body's geometry depends on: its shape and mass properties as given, the mesh
+    file's bytes, this module's source and limits, and trimesh's version. None when it
+    cannot be told (an unreadable file: the full build then reports it). A geometry that
+    failed to build is never stored, so its error is raised every time."""
+    import hashlib
+    from importlib import metadata
+    digest = hashlib.sha256()
+    try:
+        digest.update(Path(__file__).read_bytes())
+        digest.update(metadata.version("trimesh").encode())
+        digest.update(repr((MAX_TRIANGLES, MAX_GRID_CELLS, _MAX_GRID_ENTRIES)).encode())
+        digest.update(body.shape.model_dump_json().encode())
+        mp = body.mass_properties
+        digest.update(b"null" if mp is None else mp.model_dump_json().encode())
+        if isinstance(body.shape, spec.MeshFileShape):
+            digest.update(Path(body.shape.file).read_bytes())
+    except (OSError, metadata.PackageNotFoundError):
+        return None
+    return digest.hexdigest()
+
+
+def _cache_load(key):
+    if key is None:
+        return None
+    path = _CACHE_DIR / f"{key}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            fields = {name: z[name] for name in z.files}
+        os.utime(path)  # most recently used
+        scalars = {"mass": float, "bounding_radius": float, "sphere_radius": float,
+                   "watertight": bool, "n_degenerate": int, "grid_cell": float}
+        return BodyGeometry(**{name: (scalars[name](v) if name in scalars else v)
+                               for name, v in fields.items()})
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile):
+        return None  # absent, unreadable or from another layout: build it again
+
+
+def _cache_store(key, geo: BodyGeometry) -> None:
+    if key is None:
+        return
+    try:
+        _CACHE_DIR.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=_CACHE_DIR, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **{name: np.asarray(getattr(geo, name))
+                           for name in BodyGeometry.__dataclass_fields__})
+        os.replace(tmp, _CACHE_DIR / f"{key}.npz")  # atomic: readers never see half a file
+        entries = sorted(_CACHE_DIR.glob("*.npz"), key=lambda p: p.stat().st_mtime)
+        for old in entries[:-CACHE_ENTRIES]:
+            old.unlink(missing_ok=True)
+    except OSError:
+        pass  # a read-only install: no cache, every build makes the mesh
 
 
 # --------------------------------------------------------------------------- grid

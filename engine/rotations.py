@@ -84,6 +84,8 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     """Unit quaternion [w,x,y,z] (w >= 0) of a proper rotation matrix (numpy)."""
+    if np.array_equal(m, np.eye(3)):  # the common case, without importing scipy.spatial
+        return np.array([1.0, 0.0, 0.0, 0.0])
     from scipy.spatial.transform import Rotation
     x, y, z, w = Rotation.from_matrix(m).as_quat()
     q = np.array([w, x, y, z])

@@ -376,3 +376,69 @@ def test_too_many_triangles(tmp_path, monkeypatch):
     assert "320 triangles" in info.value.problems[0].allowed
     monkeypatch.setattr(meshes, "MAX_TRIANGLES", 320)
     assert len(load_mesh_file(path).faces) == 320
+
+
+# --------------------------------------------------------------------------- geometry cache
+def _geometry_fields(geo):
+    return {name: getattr(geo, name) for name in geo.__dataclass_fields__}
+
+
+def _assert_same_geometry(a, b):
+    fa, fb = _geometry_fields(a), _geometry_fields(b)
+    assert fa.keys() == fb.keys()
+    for name in fa:
+        assert np.array_equal(np.asarray(fa[name]), np.asarray(fb[name])), name
+        assert type(fa[name]) is type(fb[name]), name
+
+
+@pytest.fixture
+def geometry_cache(tmp_path, monkeypatch):
+    folder = tmp_path / "geometry-cache"
+    monkeypatch.setattr(meshes, "_CACHE_DIR", folder)
+    return folder
+
+
+def test_cached_geometry_equals_a_fresh_build(geometry_cache):
+    """Catches a cache that drops, retypes or reorders a field: the second call reads the
+    file and must give exactly what the build gave."""
+    body = Body(name="w", material="m", shape=WedgeShape(angle=1.0, height=0.04, length=0.05),
+                mass_properties=MassProperties(density=1200.0))
+    fresh = body_geometry(body)
+    assert len(list(geometry_cache.glob("*.npz"))) == 1
+    _assert_same_geometry(body_geometry(body), fresh)
+
+
+def test_geometry_cache_misses_when_the_mesh_file_changes(geometry_cache, tmp_path):
+    """Catches a key that names the file but not its content: an edited STL must not be
+    answered with the old geometry."""
+    path = tmp_path / "part.stl"
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(path)
+    body = Body(name="p", material="m", shape=MeshFileShape(file=str(path)),
+                mass_properties=MassProperties(density=1.0))
+    assert body_geometry(body).mass == pytest.approx(1.0)
+    trimesh.creation.box(extents=(2.0, 1.0, 1.0)).export(path)
+    assert body_geometry(body).mass == pytest.approx(2.0)
+
+
+def test_unreadable_cache_entry_is_rebuilt(geometry_cache):
+    """Catches a cache that trusts a truncated file (a killed writer, a full disk)."""
+    body = Body(name="b", material="m", shape=BoxShape(size=(0.1, 0.2, 0.3)),
+                mass_properties=MassProperties(density=10.0))
+    fresh = body_geometry(body)
+    (entry,) = geometry_cache.glob("*.npz")
+    entry.write_bytes(entry.read_bytes()[:50])
+    _assert_same_geometry(body_geometry(body), fresh)
+
+
+def test_errors_are_raised_again_with_a_cache(geometry_cache, tmp_path):
+    """Catches a cache that stores or hides a failed build: an open mesh with a density
+    is refused on every call."""
+    path = tmp_path / "open.stl"
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    trimesh.Trimesh(box.vertices, box.faces[:-1]).export(path)
+    body = Body(name="o", material="m", shape=MeshFileShape(file=str(path)),
+                mass_properties=MassProperties(density=1.0))
+    for _ in range(2):
+        with pytest.raises(SceneError, match="not watertight"):
+            body_geometry(body)
+    assert not list(geometry_cache.glob("*.npz"))

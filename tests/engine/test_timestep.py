@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import importlib
 
 import numpy as np
 
@@ -155,3 +156,21 @@ def test_the_bound_is_above_the_highest_frequency_of_the_linearised_bristle():
     omega_bound = 2.0 / system.dt_stable
     assert omega_true <= omega_bound * (1 + 1e-6), (omega_true, omega_bound)
     assert omega_bound < 4.0 * omega_true, (omega_true, omega_bound)
+
+
+def test_root_neighbours_agree_between_brute_force_and_kd_tree(monkeypatch):
+    """Catches an off-by-radius or index mix-up in the all-pairs path that small brushes
+    take: both paths must list the same roots for every point (scipy's k-d tree is the
+    reference)."""
+    build_mod = importlib.import_module("engine.build")
+
+    rng = np.random.default_rng(3)
+    roots = rng.uniform(-1.0, 1.0, (300, 3))
+    points = rng.uniform(-1.0, 1.0, (120, 3))
+    radius = rng.uniform(0.05, 0.6, 120)
+    brute = build_mod._roots_within(roots, points, radius)
+    monkeypatch.setattr(build_mod, "_BRUTE_PAIRS", 0)
+    tree = build_mod._roots_within(roots, points, radius)
+    assert sum(len(h) for h in brute) > 300  # the radii reach many roots
+    for a, b in zip(brute, tree):
+        assert sorted(a) == sorted(b)
