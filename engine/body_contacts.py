@@ -250,7 +250,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                         bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
                         verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                         grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
-                        active, fc, cp, par_s, energy, diss, overlap_ratio, dt):
+                        active, fc, cp, par_s, energy, diss, overlap_ratio, dUds, dt):
     """Bristle-body contacts of the first ``n_cand`` candidates, up to ``BSLOT`` each:
     slot 0 the segment's start node (a sphere of the node's radius) against the body, slot 1
     the tip node of a bristle's last segment, slot 2 the segment between its nodes against an
@@ -266,7 +266,8 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dUds,
+                                    dt)
     else:
         for c in range(n_cand):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
@@ -275,7 +276,8 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dt)
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dUds,
+                                    dt)
 
 
 @njit(cache=True)
@@ -284,7 +286,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
-                            par_s, energy, diss, overlap_ratio, dt):
+                            par_s, energy, diss, overlap_ratio, dUds, dt):
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
@@ -302,6 +304,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
     for slot_k in range(BSLOT):
         slot = c * BSLOT + slot_k
         active[slot] = 0
+        dUds[slot] = 0.0
+        dweight = 0.0
         if slot_k == 1 and seg_has_next[sg]:
             clear_history(ft, slot, friction)
             continue
@@ -314,6 +318,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             else:
                 s = segment_point_closest(x[i0], x[i1], bpos[k])
                 weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
+                dweight = (_dsmooth01(min(s, 1.0 - s) / BODY_CROSS_END) / BODY_CROSS_END
+                           * (1.0 if s < 0.5 else -1.0))
             px = x[i0, 0] + s * (x[i1, 0] - x[i0, 0])
             py = x[i0, 1] + s * (x[i1, 1] - x[i0, 1])
             pz = x[i0, 2] + s * (x[i1, 2] - x[i0, 2])
@@ -443,11 +449,27 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         energy[slot] = sto
         diss[slot] = dis
         overlap_ratio[slot] = ov / r
+        if sphere_r[k] > 0.0 and slot_k == 2:
+            # the energy U = 1/2 w(s) k(r(s)) ov^2 also changes with the axis parameter s (the
+            # fade w, the taper r and k proportional to r): dU/ds at fixed positions, applied
+            # by the scatter through grad s (the distance is stationary in s)
+            k0 = normal_stiffness(E[m1], r, E[m2], r)
+            dr = rad[i1] - rad[i0]
+            dUds[slot] = (0.5 * (dweight * k0 + weight * k0 * dr / r) * ov * ov
+                          + weight * k0 * ov * dr)
+
+
+@njit(cache=True, inline="always")
+def _dsmooth01(u):
+    """Derivative of ``smoothstep`` on (0, 1), zero outside."""
+    if u <= 0.0 or u >= 1.0:
+        return 0.0
+    return 6.0 * u * (1.0 - u)
 
 
 @njit(cache=True)
 def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s, energy, diss,
-                         overlap_ratio, bpos, bf, btq, stats):
+                         overlap_ratio, dUds, bpos, sphere_r, bf, btq, stats):
     """Add candidate forces to nodes and bodies (serial). ``stats`` gets [count, stored,
     dissipated, max overlap ratio, candidate index of the max]."""
     count = 0
@@ -476,6 +498,35 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
         btq[k, 0] -= ry * Fz - rz * Fy
         btq[k, 1] -= rz * Fx - rx * Fz
         btq[k, 2] -= rx * Fy - ry * Fx
+        g = dUds[c]
+        if g != 0.0 and sphere_r[k] > 0.0:
+            # -dU/ds grad s, s = (centre - x0).e / e.e: on the nodes and the sphere's centre
+            # (no torque: the sphere's energy does not depend on its rotation)
+            i0 = bi[sg]
+            i1 = bj[sg]
+            s = par_s[c]
+            ex = x[i1, 0] - x[i0, 0]
+            ey = x[i1, 1] - x[i0, 1]
+            ez = x[i1, 2] - x[i0, 2]
+            L2 = ex * ex + ey * ey + ez * ez
+            ax = bpos[k, 0] - x[i0, 0]
+            ay = bpos[k, 1] - x[i0, 1]
+            az = bpos[k, 2] - x[i0, 2]
+            gc = -g / L2
+            # grad_c s = e / L2; grad_x1 s = (a - 2 s e) / L2; grad_x0 s = -(the two)
+            fcx, fcy, fcz = gc * ex, gc * ey, gc * ez
+            f1x = gc * (ax - 2.0 * s * ex)
+            f1y = gc * (ay - 2.0 * s * ey)
+            f1z = gc * (az - 2.0 * s * ez)
+            f[i1, 0] += f1x
+            f[i1, 1] += f1y
+            f[i1, 2] += f1z
+            f[i0, 0] -= f1x + fcx
+            f[i0, 1] -= f1y + fcy
+            f[i0, 2] -= f1z + fcz
+            bf[k, 0] += fcx
+            bf[k, 1] += fcy
+            bf[k, 2] += fcz
         e_sto += energy[c]
         e_dis += diss[c]
         if overlap_ratio[c] > worst:

@@ -784,7 +784,7 @@ def _body_list(cap: int, friction: bool) -> BodyList:
                     par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, 3)))
+                    ft2=np.zeros((h, 3)), dUds=np.zeros(c))
 
 
 def grow_lists(system: System, which: int, needed: int) -> None:
