@@ -220,8 +220,8 @@ def test_sliding_tip_matches_frictional_elastica(friction_angle):
     is on Coulomb's cone), and the tip's displacement and the force components are the
     BVP's within 1 %. Catches friction that helps the slip instead of resisting it (the
     force on the way in would be the way out's, 1.9-2.6x too small at 24 degrees), mu taken
-    as sin(phi) instead of tan(phi) (the force's z component 5-9 % low), and a wrong normal direction or a
-    missing part of the bristle's stiffness (the frictionless case)."""
+    as sin(phi) instead of tan(phi) (the force's z component 5-9 % low), and a wrong normal
+    direction or a missing part of the bristle's stiffness (the frictionless case)."""
     got = engine_path(friction_angle)
     ref = reference_path(friction_angle)
     mu = math.tan(friction_angle)
