@@ -525,8 +525,8 @@ def build(scene: Scene) -> System:
                   inv_inertia=inv_inertia, rad=rad, bond_prev=bond_prev, bond_next=bond_next,
                   x_build=x.copy(), x0=x.copy())
     bonds = Bonds(i=bi, j=bj, kn=cat(kn_l, 0), ks=cat(ks_l, 0), kb=cat(kb_l, 0),
-                  ksb=cat(ksb_l, 0), kt=cat(kt_l, 0), L0=cat(L0_l, 0), cn=cat(cn_l, 0), cs=cat(cs_l, 0),
-                  cb=cat(cb_l, 0), ct=cat(ct_l, 0), f=np.zeros((B, 3)), ti=np.zeros((B, 3)),
+                  ksb=cat(ksb_l, 0), kt=cat(kt_l, 0), L0=cat(L0_l, 0), cn=cat(cn_l, 0),
+                  cs=cat(cs_l, 0), cb=cat(cb_l, 0), ct=cat(ct_l, 0), f=np.zeros((B, 3)), ti=np.zeros((B, 3)),
                   tj=np.zeros((B, 3)), energy=np.zeros(B), diss=np.zeros(B), bend=np.zeros(B),
                   has_next=cat(has_next, 0, np.bool_), bristle=cat(bond_bristle, 0, np.int64),
                   material=cat(bond_mat, 0, np.int64), mount=cat(bond_mount, 0, np.int64),
