@@ -1,22 +1,27 @@
 """Bristle bonds: the beam-like interaction between consecutive nodes of a bristle.
 
 Each bond carries the stiffnesses of seed eq. 3.1: normal ``E A / L``, shear ``12 E I / L^3``,
-bending ``E I / L`` and twisting ``G J / L``. They act in a co-rotational frame at the bond's
-midpoint (the node frames' mean rotation), so rotations may be large while strains stay small:
+bending ``E I / L`` and twisting ``G J / L``, and, for a tapered bond, a shear-bending
+coupling ``ksb`` (``build.frustum_bond_stiffness``). They act in a co-rotational frame at the
+bond's midpoint (the node frames' mean rotation), so rotations may be large while strains
+stay small:
 
 * axial strain: the chord length ``|x_j - x_i| - L0``;
 * shear displacement: ``(d_x, d_y)`` of ``d = R_m^T (x_j - x_i)``, the bond vector in the
   midpoint frame;
 * ``phi = log(q_i^* q_j)``: bending (x, y) and twist (z) rotation vector.
 
-Forces and torques are the exact gradient of the bond's energy (see ``_bond``).
+Forces and torques are the exact gradient of the bond's energy (see ``_bond_eval``).
 
 For small rotations the shear spring at the midpoint plus the bending spring on the relative
 rotation give exactly the Euler-Bernoulli beam element's stiffness matrix (the midpoint shear
 force ``12EI/L^3 [(y_j - y_i) - L/2 (theta_i + theta_j)]`` and the node moment
-``L/2 F + EI/L (theta_i - theta_j)``), so a cantilever under a tip load is exact at any
-resolution. Forces on both nodes are equal and opposite and torques are consistent, so linear
-and angular momentum are conserved to round-off.
+``L/2 F + EI/L (theta_i - theta_j)``), so a uniform cantilever under a tip load is exact at
+any resolution. A tapered (frustum) bond's 2 x 2 stiffness in (shear, relative rotation) is
+the inverse of the frustum's exact flexibility, which has a coupling term: with it a tapered
+cantilever under end loads is exact too, and the axial and twist springs are the frustum's
+exact compliances. Forces on both nodes are equal and opposite and torques are consistent,
+so linear and angular momentum are conserved to round-off.
 """
 from __future__ import annotations
 
@@ -32,7 +37,7 @@ NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 
 @njit(cache=True, parallel=True)
-def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
+def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
                 bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
     """Per-bond force on node i (``bf``; node j gets ``-bf``) and torques on i and j.
 
@@ -43,19 +48,19 @@ def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     nb = bi.shape[0]
     if nb >= PARALLEL_MIN:
         for b in prange(nb):
-            _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bf, bti, btj,
+            _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bf, bti, btj,
                   benergy, bdiss, bbend, damped, want_energy, dt)
     else:
         for b in range(nb):
-            _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bf, bti, btj,
+            _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bf, bti, btj,
                   benergy, bdiss, bbend, damped, want_energy, dt)
 
 
 @njit(cache=True, inline="always")
-def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
+def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
           bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
     Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz = _bond_eval(
-        b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy, bdiss, bbend,
+        b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy, bdiss, bbend,
         damped, want_energy, dt)
     bf[b, 0] = Fx
     bf[b, 1] = Fy
@@ -69,7 +74,7 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
 
 
 @njit(cache=True, parallel=True)
-def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
                      bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
     """Set each node's force and torque to the sum of its (at most two) bonds' actions, in one
     pass over nodes, without per-bond arrays.
@@ -87,15 +92,15 @@ def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bon
         nchunk = (n + NODE_CHUNK - 1) // NODE_CHUNK
         for c in prange(nchunk):
             _bond_chunk(c * NODE_CHUNK, min(n, (c + 1) * NODE_CHUNK), x, v, q, w, bi, bj, kn,
-                        ks, kb, kt, L0, cn, cs, cb, ct, bond_prev, bond_next, f, t, benergy,
+                        ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev, bond_next, f, t, benergy,
                         bdiss, bbend, damped, want_energy, dt)
     else:
-        _bond_chunk(0, n, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+        _bond_chunk(0, n, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
                     bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt)
 
 
 @njit(cache=True, inline="always")
-def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, bond_prev,
+def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
                 bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
     last = -1          # the bond evaluated as the previous node's next bond ...
     cFx = 0.0          # ... its force on node i and its torque on node j
@@ -120,7 +125,7 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, 
         nTz = 0.0
         if bn_ >= 0:
             nFx, nFy, nFz, Tix, Tiy, Tiz, nTx, nTy, nTz = _bond_eval(
-                bn_, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy, bdiss,
+                bn_, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy, bdiss,
                 bbend, damped, want_energy, dt)
             fx += nFx
             fy += nFy
@@ -132,7 +137,7 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, 
         if bp >= 0:
             if bp != last:
                 cFx, cFy, cFz, _x, _y, _z, cTx, cTy, cTz = _bond_eval(
-                    bp, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct, benergy,
+                    bp, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy,
                     bdiss, bbend, damped, False, dt)
             fx -= cFx
             fy -= cFy
@@ -161,11 +166,12 @@ def _cross(ax, ay, az, bx, by, bz):
 
 
 @njit(cache=True, inline="always")
-def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
+def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
                benergy, bdiss, bbend, damped, want_energy, dt):
     """One bond: returns the force on node i (node j gets its negative) and the torques on
     i and j. Energy U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2)
-    + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with d = R_m^T r the bond vector in the
+    + ksb (d_x phi_y - d_y phi_x) + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with
+    d = R_m^T r the bond vector in the
     midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
     exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
     so undamped bristles conserve energy for any rotation; the torques sum to r x F, so
@@ -211,11 +217,12 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
     Fx = fa * r0
     Fy = fa * r1
     Fz = fa * r2
-    # shear in the midpoint frame
-    sfx = ks[b] * dx
-    sfy = ks[b] * dy
-    mlx = kb[b] * px
-    mly = kb[b] * py
+    # shear force and midpoint moment: the gradients of U in d and phi (with the taper's
+    # coupling ksb (d_x phi_y - d_y phi_x), zero for a uniform bond)
+    sfx = ks[b] * dx + ksb[b] * py
+    sfy = ks[b] * dy - ksb[b] * px
+    mlx = kb[b] * px - ksb[b] * dy
+    mly = kb[b] * py + ksb[b] * dx
     mlz = kt[b] * pz
     gx, gy, gz = _cross(dx, dy, dz, sfx, sfy, 0.0)   # d x f_shear, midpoint frame
     sx, sy, sz = qrot(mw, mx, my, mz, sfx, sfy, 0.0)
@@ -303,7 +310,8 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, kt, L0, cn, cs, cb, ct,
             bdiss[b] = dt * (cs[b] * (lvx * lvx + lvy * lvy) + cn[b] * lvz * lvz
                              + cb[b] * (ox * ox + oy * oy) + ct[b] * oz * oz)
     if want_energy:
-        benergy[b] = 0.5 * (kn[b] * ez * ez + ks[b] * (dx * dx + dy * dy)
-                            + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
-        bbend[b] = kb[b] * math.sqrt(px * px + py * py)
+        benergy[b] = (0.5 * (kn[b] * ez * ez + ks[b] * (dx * dx + dy * dy)
+                             + kb[b] * (px * px + py * py) + kt[b] * pz * pz)
+                      + ksb[b] * (dx * py - dy * px))
+        bbend[b] = math.sqrt(mlx * mlx + mly * mly)
     return Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz

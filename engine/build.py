@@ -180,6 +180,47 @@ def kinematic_segments(profile, com0: np.ndarray, q0: np.ndarray, shape_to_body:
     return segs
 
 
+def frustum_bond_stiffness(E, G, r0, r1, length):
+    """Stiffnesses of the bond between nodes of radii ``r0`` (node i) and ``r1`` (node j), a
+    linearly tapered solid circular Euler-Bernoulli frustum of ``length`` (arrays or floats):
+    ``(kn, ks, kb, ksb, kt)`` for the energy of ``bonds._bond_eval``.
+
+    Axial and twist are the exact frustum compliances, ``1/kn = int dx / (E A(x))`` and
+    ``1/kt = int dx / (G J(x))``: ``kn = E pi r0 r1 / L``, ``kt = G pi/2 * 3 r0^3 r1^3 /
+    (L (r0^2 + r0 r1 + r1^2))`` (seed eq. 3.1 for a uniform bond).
+
+    Bending: the bond's energy in one plane is ``1/2 ks d^2 + ksb d phi + 1/2 kb phi^2`` with
+    ``d`` the midpoint shear displacement and ``phi`` the relative rotation, whose conjugate
+    forces are the shear force V and the bending moment at the midpoint. For a beam whose
+    node i is clamped these are ``[d, phi] = C [V, M_mid]`` with the exact flexibility
+
+        C = int_0^L [xi^2, xi; xi, 1] / (E I(x)) dx,   xi = L/2 - x,
+
+    and the stiffness is ``C^-1``. With ``I = pi r^4 / 4`` and r linear in x the integrals are
+    rational in r0, r1 (E0 = E pi r0^4 / 4, beta = r1 / r0):
+    ``C = [L^3 (b^2 - b + 1) / 12, L^2 (b^2 - 1) / 6; ., L (b^2 + b + 1) / 3] / (E0 b^3)``,
+    determinant ``L^4 / (12 E0^2 b^4)``, so
+
+        ks  = E pi r0 r1 (r0^2 + r0 r1 + r1^2) / L^3
+        kb  = E pi r0 r1 (r0^2 - r0 r1 + r1^2) / (4 L)
+        ksb = E pi r0 r1 (r0^2 - r1^2) / (2 L^2)
+
+    (uniform: ``12 E I / L^3``, ``E I / L``, 0, seed eq. 3.1). The element is then the exact
+    Euler-Bernoulli stiffness of the frustum for any end loads, so a tapered cantilever under
+    tip loads is exact at any resolution, as the uniform one already was; ``ks kb - ksb^2 =
+    3 (E pi r0^2 r1^2)^2 / (4 L^4) > 0``.
+    """
+    s2 = r0 * r0 + r1 * r1
+    p = r0 * r1
+    e = E * math.pi * p
+    kn = e / length
+    ks = e * (s2 + p) / length ** 3
+    kb = e * (s2 - p) / (4.0 * length)
+    ksb = e * (r0 * r0 - r1 * r1) / (2.0 * length ** 2)
+    kt = G * math.pi / 2.0 * 3.0 * p ** 3 / (length * (s2 + p))
+    return kn, ks, kb, ksb, kt
+
+
 def _conj(q) -> np.ndarray:
     return np.array([q[0], -q[1], -q[2], -q[3]], float)
 
@@ -349,7 +390,7 @@ def build(scene: Scene) -> System:
     # ------------------------------------------------------------------ bristles
     xs, rads, masses, inertias, node_bristle, node_mat = [], [], [], [], [], []
     qs = []
-    bi_l, bj_l, kn_l, ks_l, kb_l, kt_l, L0_l = [], [], [], [], [], [], []
+    bi_l, bj_l, kn_l, ks_l, kb_l, ksb_l, kt_l, L0_l = [], [], [], [], [], [], [], []
     cn_l, cs_l, cb_l, ct_l = [], [], [], []
     bond_bristle, bond_mat, bond_mount, has_next = [], [], [], []
     root_node, root_body, root_lpos, root_lq, root_brush = [], [], [], [], []
@@ -387,12 +428,7 @@ def build(scene: Scene) -> System:
         m_node[:-1] += 0.5 * seg_mass
         m_node[1:] += 0.5 * seg_mass
         I_node = 0.5 * m_node * r_node ** 2  # isotropic: the node's own twist inertia
-        A_eff = math.pi * r0 * r1                                         # 1/EA integrated
-        I_eff = math.pi / 4 * 3 * r0 ** 3 * r1 ** 3 / (r0 * r0 + r0 * r1 + r1 * r1)  # 1/EI
-        kn = E * A_eff / seg_len                     # seed eq. 3.1
-        ks = 12.0 * E * I_eff / seg_len ** 3
-        kb = E * I_eff / seg_len
-        kt = G * 2.0 * I_eff / seg_len
+        kn, ks, kb, ksb, kt = frustum_bond_stiffness(E, G, r0, r1, seg_len)
         mi, mj = m_node[:-1], m_node[1:]
         meff = np.where(np.arange(n - 1) == 0, mj, mi * mj / (mi + mj))
         Ii, Ij = I_node[:-1], I_node[1:]
@@ -429,6 +465,7 @@ def build(scene: Scene) -> System:
                 kn_l.append(kn)
                 ks_l.append(ks)
                 kb_l.append(kb)
+                ksb_l.append(ksb)
                 kt_l.append(kt)
                 L0_l.append(np.full(n - 1, seg_len))
                 cn_l.append(2 * zb * np.sqrt(kn * meff))
@@ -488,8 +525,8 @@ def build(scene: Scene) -> System:
                   inv_inertia=inv_inertia, rad=rad, bond_prev=bond_prev, bond_next=bond_next,
                   x_build=x.copy(), x0=x.copy())
     bonds = Bonds(i=bi, j=bj, kn=cat(kn_l, 0), ks=cat(ks_l, 0), kb=cat(kb_l, 0),
-                  kt=cat(kt_l, 0), L0=cat(L0_l, 0), cn=cat(cn_l, 0), cs=cat(cs_l, 0),
-                  cb=cat(cb_l, 0), ct=cat(ct_l, 0), f=np.zeros((B, 3)), ti=np.zeros((B, 3)),
+                  ksb=cat(ksb_l, 0), kt=cat(kt_l, 0), L0=cat(L0_l, 0), cn=cat(cn_l, 0),
+                  cs=cat(cs_l, 0), cb=cat(cb_l, 0), ct=cat(ct_l, 0), f=np.zeros((B, 3)), ti=np.zeros((B, 3)),
                   tj=np.zeros((B, 3)), energy=np.zeros(B), diss=np.zeros(B), bend=np.zeros(B),
                   has_next=cat(has_next, 0, np.bool_), bristle=cat(bond_bristle, 0, np.int64),
                   material=cat(bond_mat, 0, np.int64), mount=cat(bond_mount, 0, np.int64),
@@ -616,7 +653,8 @@ def build(scene: Scene) -> System:
                    node_bristle_contacts=np.minimum(node_partners, BRISTLE_CONTACTS_PER_NODE),
                    node_k_body=node_k_body, kt_ratio_bristle=float(kt_bb),
                    kt_ratio_body=float(kt_body),
-                   bond_arrays=(bi, bj, bonds.kn, bonds.ks, bonds.kb, bonds.kt, bonds.L0),
+                   bond_arrays=(bi, bj, bonds.kn, bonds.ks, bonds.kb, bonds.ksb, bonds.kt,
+                                bonds.L0),
                    bodies=bodies_info, node_label=None)
     node_bristle_arr = nbristle
     bristle_first_arr = np.asarray(bristle_first, np.int64)

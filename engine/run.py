@@ -178,21 +178,17 @@ def root_reactions(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def bending_moments(system: System) -> np.ndarray:
-    """Bending moment magnitude per bond, k_b |phi_bend| (N m), from the current state."""
-    bn, q = system.bonds, system.nodes.q
-    qi, qj = q[bn.i], q[bn.j]
-    # relative rotation q_i^* q_j
-    w = qi[:, 0] * qj[:, 0] + np.sum(qi[:, 1:] * qj[:, 1:], axis=1)
-    v = (qi[:, 0, None] * qj[:, 1:] - qj[:, 0, None] * qi[:, 1:]
-         - np.cross(qi[:, 1:], qj[:, 1:]))
-    # express in i's frame: the vector part of q_i^* q_j already is; split bend/twist by the
-    # bond axis, which is the local z axis at rest
-    vn = np.linalg.norm(v, axis=1)
-    angle = 2.0 * np.arctan2(vn, np.abs(w))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        axis = np.where(vn[:, None] > 0, v / np.where(vn > 0, vn, 1.0)[:, None], 0.0)
-    phi = axis * angle[:, None]
-    return bn.kb * np.hypot(phi[:, 0], phi[:, 1])
+    """Bending moment magnitude per bond at its midpoint (N m), from the current state: the
+    bond kernel's own value (the gradient of the bond energy in the bending rotation,
+    ``|k_b phi + k_sb e_z x d|``, which includes a tapered bond's shear coupling)."""
+    from .bonds import bond_forces
+    nd, bn = system.nodes, system.bonds
+    B = bn.i.shape[0]
+    bend = np.zeros(B)
+    bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0,
+                bn.cn, bn.cs, bn.cb, bn.ct, np.zeros((B, 3)), np.zeros((B, 3)),
+                np.zeros((B, 3)), np.zeros(B), np.zeros(B), bend, False, True, system.dt)
+    return bend
 
 
 def _frame(system: System, channels: dict) -> dict:
@@ -485,8 +481,8 @@ def _refresh_forces(system: System) -> None:
     """Evaluate bond energies of the initial state (no time advance)."""
     from .bonds import bond_forces
     nd, bn = system.nodes, system.bonds
-    bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.kt, bn.L0, bn.cn,
-                bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss, bn.bend,
+    bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0,
+                bn.cn, bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss, bn.bend,
                 system.flags.bond_damping, True, system.dt)
 
 

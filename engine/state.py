@@ -12,7 +12,7 @@ Nodes = namedtuple("Nodes", [
     "bond_prev", "bond_next", "x_build", "x0"])
 
 Bonds = namedtuple("Bonds", [
-    "i", "j", "kn", "ks", "kb", "kt", "L0", "cn", "cs", "cb", "ct", "f", "ti", "tj",
+    "i", "j", "kn", "ks", "kb", "ksb", "kt", "L0", "cn", "cs", "cb", "ct", "f", "ti", "tj",
     "energy", "diss", "bend", "has_next", "bristle", "material", "mount", "mid", "bound",
     "rmax"])
 

@@ -372,8 +372,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         last = it == n_steps - 1
         want_energy = fl.track_energy and (last or fl.bond_damping)
         if fl.bonds:
-            bond_node_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.kt,
-                             bn.L0, bn.cn, bn.cs, bn.cb, bn.ct, nd.bond_prev, nd.bond_next,
+            bond_node_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb,
+                             bn.kt, bn.L0, bn.cn, bn.cs, bn.cb, bn.ct, nd.bond_prev, nd.bond_next,
                              nd.f, nd.t, bn.energy, bn.diss, bn.bend, fl.bond_damping,
                              want_energy, dt)
             if fl.track_energy and fl.bond_damping:

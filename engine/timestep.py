@@ -4,7 +4,8 @@ multiplies it by ``run.dt_safety``.
 
 For every node the bound adds, over its bonds, the absolute entries of its rows of the
 mass-normalised Euler-Bernoulli element stiffness matrix (axial ``EA/L``, shear ``12EI/L^3``,
-coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``), plus the contacts the node
+coupling ``6EI/L^2``, rotation ``4EI/L``/``2EI/L``, twist ``GJ/L``; a tapered bond's exact
+frustum matrix, see :func:`node_bond_bounds`), plus the contacts the node
 can actually have (``build`` works them out from where the node can reach):
 
 * bristle-bristle: one contact per other bristle that can reach the node's segments, at most
@@ -42,22 +43,29 @@ BRISTLE_CONTACTS_PER_NODE = 4
 BODY_CONTACTS = 100
 
 
-def node_bond_bounds(mass, inertia, bi, bj, kn, ks, kb, kt, L0):
-    """Per-node Gershgorin bounds of omega^2 from the bonds (translation and rotation rows)."""
+def node_bond_bounds(mass, inertia, bi, bj, kn, ks, kb, ksb, kt, L0):
+    """Per-node Gershgorin bounds of omega^2 from the bonds (translation and rotation rows).
+
+    In each bending plane the element matrix of the energy ``1/2 ks d^2 + ksb d phi +
+    1/2 kb phi^2`` (``d = v_j - v_i - L/2 (theta_i + theta_j)``, ``phi = theta_j - theta_i``)
+    has the shear-rotation coupling ``ks L/2 + ksb`` at node i's rotation and
+    ``ks L/2 - ksb`` at node j's, the rotation diagonals ``ks L^2/4 + kb +- ksb L`` and the
+    off-diagonal ``ks L^2/4 - kb`` (uniform, ksb = 0: 6EI/L^2, 4EI/L, 2EI/L)."""
     n = mass.shape[0]
     trans = np.zeros(n)
     rot = np.zeros(n)
-    for a, b in ((bi, bj), (bj, bi)):
+    for a, b, sign in ((bi, bj, 1.0), (bj, bi, -1.0)):
         ma, mb = mass[a], mass[b]
         Ia, Ib = inertia[a], inertia[b]
-        c = 0.5 * ks * L0  # 6EI/L^2 = ks L / 2
+        c_own = np.abs(0.5 * ks * L0 + sign * ksb)    # shear of either node <-> a's rotation
+        c_other = np.abs(0.5 * ks * L0 - sign * ksb)  # ... <-> b's rotation
         row_axial = kn / ma + kn / np.sqrt(ma * mb)
-        row_shear = ks / ma + ks / np.sqrt(ma * mb) + c / np.sqrt(ma * Ia) + c / np.sqrt(ma * Ib)
-        # 4EI/L = ks L^2/4 + kb ; 2EI/L = ks L^2/4 - kb (the midpoint formulation)
-        r_diag = 0.25 * ks * L0 ** 2 + kb
-        r_off = abs(0.25 * ks * L0 ** 2 - kb)
-        row_bend = (r_diag / Ia + r_off / np.sqrt(Ia * Ib) + c / np.sqrt(Ia * ma)
-                    + c / np.sqrt(Ia * mb))
+        row_shear = (ks / ma + ks / np.sqrt(ma * mb) + c_own / np.sqrt(ma * Ia)
+                     + c_other / np.sqrt(ma * Ib))
+        r_diag = 0.25 * ks * L0 ** 2 + kb + sign * ksb * L0
+        r_off = np.abs(0.25 * ks * L0 ** 2 - kb)
+        row_bend = (r_diag / Ia + r_off / np.sqrt(Ia * Ib) + c_own / np.sqrt(Ia * ma)
+                    + c_own / np.sqrt(Ia * mb))
         row_twist = kt / Ia + kt / np.sqrt(Ia * Ib)
         np.add.at(trans, a, np.maximum(row_axial, row_shear))
         np.add.at(rot, a, np.maximum(row_bend, row_twist))
