@@ -1,8 +1,13 @@
 """``brush-studio study spin`` (seed 4.3): geometry of the six configurations, contact and
 rest detection on known signals, and the acceptance checks of the brush dynamic test at a
-reduced resolution (a 7 x 3 brush of 3-node bristles and the 20 mm cube, through the Dask
+reduced resolution (a 7 x 3 brush of 5-node bristles and the 20 mm cube, through the Dask
 runner): the cube comes to rest, omega changes by different amounts at different contacts,
 and the brush closer to the axis stops the cube sooner (seed 4.3.5).
+
+Why 5 nodes: with the exact frustum element (issue 11) 3-node bristles are no longer too
+compliant, and at 3 nodes the seed's order does not hold (3 s runs: configuration 1 rests at
+1.77 s, configuration 2 at 1.41 s); at 5 nodes it does (0.79 s; 2.40 s). The old element's
+3-node softness had let the tips slide, and so dissipate, more.
 """
 from __future__ import annotations
 
@@ -101,10 +106,11 @@ def test_rest_time_is_the_spin_down_time():
 def spin_study(tmp_path_factory):
     """The study at reduced resolution through the CLI and the Dask runner: the 20 mm cube,
     configurations 1 (tips on the face plane) and 2 (halfway to the edge), a 7 x 3 brush of
-    3-node bristles, at most 1 s; one run with random tips."""
+    5-node bristles, at most 1.5 s (a rest needs 0.3 s of calm after it); one run with
+    random tips."""
     out = tmp_path_factory.mktemp("spin_study")
     code = main(["study", "spin", "-o", str(out), "--cubes", "20", "--configs", "1,2",
-                 "--grid", "7,3", "--n-nodes", "3", "--duration", "1.0",
+                 "--grid", "7,3", "--n-nodes", "5", "--duration", "1.5",
                  "--random-seeds", "1", "--random-cube", "20", "--random-config", "1",
                  "--workers", "2", "--no-progress"])
     assert code == 0
@@ -122,7 +128,7 @@ def test_spin_study_writes_its_outputs(spin_study):
     outcomes = json.loads((out / "outcomes.json").read_text())
     assert all(o["status"] in ("completed", "stopped") for o in outcomes)
     with engine.open_result(out / "runs" / "cube20_config1.h5") as res:
-        assert res.scene.brushes[0].rows == 7 and res.scene.brushes[0].n_nodes == 3
+        assert res.scene.brushes[0].rows == 7 and res.scene.brushes[0].n_nodes == 5
 
 
 def test_cube_comes_to_rest(spin_study):
