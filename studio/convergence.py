@@ -1279,5 +1279,6 @@ def register(subparsers) -> None:
                    help="an existing Dask scheduler (tcp://host:port); default a local cluster")
     p.add_argument("--workers", type=int, metavar="N",
                    help="local cluster workers (default one per core)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-q", "--quiet", "--no-progress", dest="quiet", action="store_true",
+                   help="no progress bar")
     p.set_defaults(func=_cmd_convergence)
