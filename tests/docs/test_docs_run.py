@@ -52,6 +52,11 @@ FAST = os.environ.get("BRUSH_DOCS_FAST", "1") != "0"
 # one block may run a small study or a short simulation; minutes mean a size was not reduced
 BLOCK_TIMEOUT_S = float(os.environ.get("BRUSH_DOCS_TIMEOUT", "300"))
 
+# the README's test command, run by this test with BRUSH_DOCS_FAST=0, would run this test
+# again, and so on: inside a documented command this module does nothing
+pytestmark = pytest.mark.skipif(bool(os.environ.get("BRUSH_DOCS_NESTED")),
+                                reason="run by a documented command inside the docs test")
+
 _FENCE = re.compile(r"^(\s*)(```+)(.*)$")
 _MARKER = re.compile(r"<!--\s*docs:\s*(.*?)\s*-->")
 _REPLACE = re.compile(r'^"((?:[^"\\]|\\.)*)"\s*->\s*"((?:[^"\\]|\\.)*)"\s*(.*)$', re.S)
@@ -175,6 +180,7 @@ def _env(shim: Path) -> dict:
     env["MPLBACKEND"] = "Agg"
     env.setdefault("NUMBA_NUM_THREADS", "2")
     env["BRUSH_DOCS_FAST"] = "1" if FAST else "0"
+    env["BRUSH_DOCS_NESTED"] = "1"
     return env
 
 
