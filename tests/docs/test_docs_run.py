@@ -1,4 +1,6 @@
-"""Documentation that runs: every fenced code block of README.md and docs/*.md is executed.
+"""Documentation that runs: every fenced code block of README.md, docs/*.md and
+static_presets/README.md is executed. (The scene example of docs/scene.md, a ``json`` block,
+is validated by tests/engine/test_spec.py.)
 
 Each ``bash``/``sh``/``shell`` block runs in ``bash -e`` and each ``python`` block in a fresh
 ``python`` subprocess, in a new empty temporary folder, and must exit 0. The folder holds one
@@ -46,7 +48,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-DOC_FILES = [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
+DOC_FILES = ([ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
+             + [ROOT / "static_presets" / "README.md"])
 RUN_LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", "py": "python"}
 FAST = os.environ.get("BRUSH_DOCS_FAST", "1") != "0"
 # one block may run a small study or a short simulation; minutes mean a size was not reduced
