@@ -464,10 +464,31 @@ def check_measurable(scene, quantity: Quantity) -> None:
     ends in a static state: a scene without any damping (no ``environment.local_damping``,
     no material ``bond_damping``) ends in a free vibration, whose last frame is a random
     point of the swing (a ladder of those looks like a convergence failure); an oscillating
-    load never lets it settle either."""
+    load never lets it settle either. ``spectral_peak`` needs a free vibration after the last
+    load; ``wedge_force`` a body with a stepped profile reaching the depth;
+    ``body_omega_after_first_contact`` a hinge or free body."""
+    name = scene.name
+    if quantity.kind == "spectral_peak":
+        free_from = _free_after(scene)
+        if free_from >= scene.run.duration:
+            raise ConvergenceError(
+                f"spectral_peak needs a free vibration after the loads end: in {name!r} they "
+                f"{'oscillate to the end' if math.isinf(free_from) else f'last until {free_from:g} s'}"
+                f" and the run ends at {scene.run.duration:g} s")
+        return
+    if quantity.kind == "wedge_force":
+        prof = _stepped_body(scene, quantity.body).motion.profile
+        deepest = prof.n_steps * prof.step
+        if quantity.depth > deepest * (1 + 1e-9):
+            raise ConvergenceError(
+                f"wedge_force@{quantity.depth:g}: the body goes down to {deepest:g} m only "
+                f"({prof.n_steps} steps of {prof.step:g} m)")
+        return
+    if quantity.kind == "body_omega_after_first_contact":
+        _spinning_body(scene, quantity.body)
+        return
     if quantity.kind != "tip_deflection":
         return
-    name = scene.name
     damped = scene.environment.local_damping > 0 or any(
         scene.materials[b.material].bond_damping > 0 for b in scene.brushes)
     if not damped:

@@ -375,3 +375,22 @@ def test_damped_scene_and_other_quantities_are_measurable():
     scene["loads"][0]["profile"]["frequency"] = 5.0
     with pytest.raises(cv.ConvergenceError, match="oscillating at 5 Hz"):
         cv.check_measurable(engine.parse_scene(scene), cv.parse_quantity("tip_deflection"))
+
+
+def test_other_quantities_that_do_not_fit_the_scene_are_refused():
+    from studio.presets import load_preset
+
+    impulse = load_preset("rod_tip_impulse")
+    cv.check_measurable(impulse, cv.parse_quantity("spectral_peak:2"))
+    with pytest.raises(cv.ConvergenceError, match="needs a body driven by a stepped"):
+        cv.check_measurable(impulse, cv.parse_quantity("wedge_force@10mm"))
+    with pytest.raises(cv.ConvergenceError, match="needs a hinge or free body"):
+        cv.check_measurable(impulse, cv.parse_quantity("body_omega_after_first_contact"))
+    wedge = load_preset("wedge_60")   # 33 steps of 1 mm
+    cv.check_measurable(wedge, cv.parse_quantity("wedge_force@20mm"))
+    with pytest.raises(cv.ConvergenceError, match="down to 0.033 m only"):
+        cv.check_measurable(wedge, cv.parse_quantity("wedge_force@40mm"))
+    driven = cone_scene()
+    driven["loads"][0]["profile"]["frequency"] = 5.0   # driven to the end: no free vibration
+    with pytest.raises(cv.ConvergenceError, match="free vibration after the loads end"):
+        cv.check_measurable(engine.parse_scene(driven), cv.parse_quantity("spectral_peak"))
