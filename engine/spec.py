@@ -482,8 +482,18 @@ def _problems_from(err: ValidationError) -> list[FieldProblem]:
                 field, value, rest = part.split(_FS)
                 problems.append(FieldProblem(field, json.loads(value), rest))
             continue
+        if e["type"] == "missing":  # its "input" is the enclosing object: say what is missing
+            problems.append(FieldProblem(loc, None, "required field is missing"))
+            continue
         problems.append(FieldProblem(loc or "(scene)", e.get("input"), msg))
     return problems
+
+
+def _json_error(exc: json.JSONDecodeError, source: Optional[str]) -> SceneError:
+    """Invalid JSON, named by where: the file (when known), line and column."""
+    where = f"line {exc.lineno}, column {exc.colno}"
+    return SceneError.single("(file)", source if source is not None else where,
+                             f"not valid JSON at {where}: {exc.msg}")
 
 
 def parse_scene(data: Union[dict, str, bytes]) -> Scene:
@@ -493,7 +503,7 @@ def parse_scene(data: Union[dict, str, bytes]) -> Scene:
             try:
                 data = json.loads(data)
             except json.JSONDecodeError as exc:
-                raise SceneError.single("(file)", None, f"not valid JSON: {exc}") from None
+                raise _json_error(exc, None) from None
         if not isinstance(data, dict):
             raise SceneError.single("(scene)", type(data).__name__, "must be a JSON object")
         return Scene.model_validate(data)
@@ -509,7 +519,11 @@ def load_scene(path: Union[str, Path]) -> Scene:
         text = path.read_text()
     except OSError as exc:
         raise SceneError.single("(file)", str(path), f"cannot be read: {exc}") from None
-    scene = parse_scene(text)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise _json_error(exc, str(path)) from None
+    scene = parse_scene(data)
     for body in scene.bodies:
         if body.shape.type == "mesh" and not Path(body.shape.file).is_absolute():
             body.shape = body.shape.model_copy(

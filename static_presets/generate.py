@@ -125,6 +125,29 @@ def rod_weight_release():
     return rod_scene("rod_weight_release", desc, load, release + free, 0.001)
 
 
+def rod_weight_static():
+    weight = 0.020 * 9.81  # 20 g at the tip (seed 4.1.1), N
+    ramp, duration = 0.2, 1.5
+    desc = (
+        "Seed 4.1.1 (fig. 4.2), the weight release test's loaded state as a static case, "
+        "for convergence studies of tip_deflection. " + ROD_COMMON +
+        f"Unlike the rod presets above, this one is damped and has gravity on. "
+        f"The 20 g tip weight ({weight:.4f} N along -z on the tip node, a force: an "
+        f"assumption) is ramped on linearly over 0-{ramp:g} s and held; gravity is on (the "
+        f"rod's own weight, along the same -z), and Cundall local damping 0.7 (an "
+        f"assumption: it changes how fast the rod settles, not where) lets it settle to "
+        f"the static deflection, about 0.106 m (27 % of L), within {duration:g} s. "
+        f"Reference: the elastica of the cantilever under its tip load and own weight. "
+        f"Duration {duration:g} s, record interval 10 ms (only the last frame is the "
+        f"result).")
+    load = {"brush": "brush", "bristles": "all", "node": -1, "force": [0.0, 0.0, -weight],
+            "profile": {"times": [0.0, ramp], "values": [0.0, 1.0]}}
+    scene = rod_scene("rod_weight_static", desc, load, duration, 0.01)
+    scene["environment"] = {"gravity": [0.0, 0.0, -9.81], "local_damping": 0.7}
+    scene["run"]["channels"] = ["nodes", "root_force"]
+    return scene
+
+
 IMPULSE_PROFILE = {"times": [0.0, 0.0025, 0.005], "values": [0.0, 1.0, 0.0]}
 
 
@@ -550,7 +573,8 @@ def gripper():
 
 
 def all_presets() -> dict[str, dict]:
-    scenes = [rod_weight_release(), rod_tip_impulse(), rod_root_impulse(),
+    scenes = [rod_weight_release(), rod_weight_static(), rod_tip_impulse(),
+              rod_root_impulse(),
               *(wedge_scene(a) for a in (30, 45, 60, 75)),
               *(spin_cube(s) for s in (20, 40, 60)),
               momentum_two_brushes(), momentum_spheres_cube(),

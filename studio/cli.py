@@ -377,8 +377,14 @@ def _cmd_demo(args) -> int:
     except engine.SceneError as exc:  # a broken package, not a user error
         _print_scene_error(exc, "the embedded demo scene is invalid")
         return EXIT_FAILED
-    h5, summary_json, png = out / "demo.h5", out / "summary.json", out / "root_force.png"
     out.mkdir(parents=True, exist_ok=True)
+    if args.scene_only:  # a scene file to start from, for the docs' snippets and own edits
+        path = out / "scene.json"
+        engine.save_scene(scene, path)
+        print(f"wrote {path} (the demo scene {scene.name!r}; run it with "
+              f"brush-studio run {path} -o run.h5)")
+        return EXIT_OK
+    h5, summary_json, png = out / "demo.h5", out / "summary.json", out / "root_force.png"
     print(f"Running the embedded demo scene {scene.name!r} into {out}/ "
           f"(the first run compiles the engine: a minute or two; later runs take seconds)")
     code, summary = _execute(scene, h5, summary_json, None, args.quiet)
@@ -507,6 +513,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--output", metavar="DIR", default=DEMO_DIR,
                    help=f"output folder (default ./{DEMO_DIR})")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    d.add_argument("--scene-only", action="store_true",
+                   help="write only the demo scene, DIR/scene.json, without running it")
     d.set_defaults(func=_cmd_demo)
 
     v = sub.add_parser("validate", help="check a scene without running it")

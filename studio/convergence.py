@@ -457,6 +457,56 @@ def measure(result_path, quantity: Quantity | str) -> float:
         return _peak_plate_force(res, q)
 
 
+def check_measurable(scene, quantity: Quantity) -> None:
+    """Refuse, before anything runs, a quantity the scene cannot give a meaningful value of.
+
+    ``tip_deflection`` is read at the last frame, so it means something only where the run
+    ends in a static state: a scene without any damping (no ``environment.local_damping``,
+    no material ``bond_damping``) ends in a free vibration, whose last frame is a random
+    point of the swing (a ladder of those looks like a convergence failure); an oscillating
+    load never lets it settle either. ``spectral_peak`` needs a free vibration after the last
+    load; ``wedge_force`` a body with a stepped profile reaching the depth;
+    ``body_omega_after_first_contact`` a hinge or free body."""
+    name = scene.name
+    if quantity.kind == "spectral_peak":
+        free_from = _free_after(scene)
+        if free_from >= scene.run.duration:
+            raise ConvergenceError(
+                f"spectral_peak needs a free vibration after the loads end: in {name!r} they "
+                f"{'oscillate to the end' if math.isinf(free_from) else f'last until {free_from:g} s'}"
+                f" and the run ends at {scene.run.duration:g} s")
+        return
+    if quantity.kind == "wedge_force":
+        prof = _stepped_body(scene, quantity.body).motion.profile
+        deepest = prof.n_steps * prof.step
+        if quantity.depth > deepest * (1 + 1e-9):
+            raise ConvergenceError(
+                f"wedge_force@{quantity.depth:g}: the body goes down to {deepest:g} m only "
+                f"({prof.n_steps} steps of {prof.step:g} m)")
+        return
+    if quantity.kind == "body_omega_after_first_contact":
+        _spinning_body(scene, quantity.body)
+        return
+    if quantity.kind != "tip_deflection":
+        return
+    damped = scene.environment.local_damping > 0 or any(
+        scene.materials[b.material].bond_damping > 0 for b in scene.brushes)
+    if not damped:
+        raise ConvergenceError(
+            f"tip_deflection needs a static scene: it is read at the last frame, and "
+            f"{name!r} has no damping (environment.local_damping = 0, bond_damping = 0), so "
+            f"its last frame is a point of a free vibration. Add damping "
+            f"(environment.local_damping, e.g. 0.7) so that the rod settles, use a static "
+            f"scene (the preset rod_weight_static), or measure the vibration with "
+            f"spectral_peak")
+    for load in scene.loads:
+        if load.profile.frequency > 0:
+            raise ConvergenceError(
+                f"tip_deflection needs a static scene: {name!r} has a load oscillating at "
+                f"{load.profile.frequency:g} Hz, so its tip never settles; measure a static "
+                f"load, or the vibration with spectral_peak")
+
+
 # ============================================================================ references
 def cantilever_beta_l(n_modes: int = 3) -> np.ndarray:
     """Roots beta_n L of the clamped-free frequency equation cos(bL) cosh(bL) = -1."""
@@ -1052,6 +1102,7 @@ def run_convergence(scene, quantity: Quantity | str, out_dir, *,
         scene = engine.parse_scene(scene)
     if reference not in ("auto", "analytic", "richardson", "finest"):
         raise ConvergenceError(f"reference {reference!r}: auto, analytic, richardson or finest")
+    check_measurable(scene, q)
     levels, records = run_ladder(scene, out_dir, n_nodes=n_nodes, dt_factors=dt_factors,
                                  serial=serial, scheduler=scheduler, workers=workers,
                                  progress=progress, warm_up=warm_up)
@@ -1228,7 +1279,8 @@ def register(subparsers) -> None:
                     "(level,n_nodes,dt,quantity,error,wall_s), convergence.h5, "
                     "convergence.json and convergence.png (log-log error vs wall time).", 90),
         epilog=QUANTITY_HELP + "\n\nexample:\n  brush-studio convergence rod.json --quantity "
-               "tip_deflection --ladder n_nodes=3,5,9,17,33 -o rod-convergence")
+               "tip_deflection --ladder n_nodes=5,9,17 -o rod-convergence\n  "
+               "(rod.json: a static scene, e.g. static_presets/rod_weight_static.json)")
     p.add_argument("scene", metavar="SCENE.json")
     p.add_argument("--quantity", "-Q", required=True, metavar="NAME",
                    help="quantity of interest (below)")
@@ -1248,5 +1300,6 @@ def register(subparsers) -> None:
                    help="an existing Dask scheduler (tcp://host:port); default a local cluster")
     p.add_argument("--workers", type=int, metavar="N",
                    help="local cluster workers (default one per core)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-q", "--quiet", "--no-progress", dest="quiet", action="store_true",
+                   help="no progress bar")
     p.set_defaults(func=_cmd_convergence)

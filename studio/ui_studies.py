@@ -34,9 +34,9 @@ FORMS: dict[str, list[tuple[str, str, Any, str]]] = {
     "refinement": [("preset", "preset", "wedge_60", "preset"),
                    ("depth_mm", "number", 2.0, "depth [mm]"),
                    ("levels", "text", "3,4", "nodes per bristle (levels)")],
-    "convergence": [("scene", "preset", "rod_weight_release", "scene preset"),
+    "convergence": [("scene", "preset", "rod_weight_static", "scene preset"),
                     ("quantity", "text", "tip_deflection", "quantity"),
-                    ("ladder", "text", "n_nodes=3,5,9", "ladder"),
+                    ("ladder", "text", "n_nodes=5,9,17", "ladder"),
                     ("dt_factor", "text", "", "dt factors (optional)")],
 }
 STUDY_NAMES = tuple(FORMS)

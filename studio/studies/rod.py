@@ -533,8 +533,8 @@ def add_parser(study_subparsers) -> None:
                     "the rod lying on a plate with friction (seed fig. 4.6).")
     p.add_argument("--cases", default=",".join(CASES + ("response",)),
                    help="comma-separated subset of: " + ", ".join(CASES + ("response",)))
-    p.add_argument("--n-nodes", type=int, default=None,
-                   help="nodes per rod for the excitation cases (default: the presets', 36)")
+    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
+                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36)")
     p.add_argument("--free-duration", type=float, default=None, metavar="S",
                    help="free vibration recorded after the excitation (default: the "
                         "presets', 4.5 s)")

@@ -216,3 +216,25 @@ def test_load_scene_resolves_relative_mesh(scene_dict, tmp_path):
     scene = load_scene(path)
     assert Path(scene.bodies[0].shape.file) == (tmp_path / "parts" / "wedge.stl").resolve()
 
+
+
+def test_invalid_json_names_file_line_and_column(tmp_path):
+    """A scene file with a syntax error says where: file, line, column (not `(file) = None`)."""
+    path = tmp_path / "broken.json"
+    path.write_text('{"name": "x",\n  "brushes": [}\n')
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    (problem,) = info.value.problems
+    assert problem.field == "(file)" and problem.value == str(path)
+    assert "line 2, column 15" in problem.allowed and "not valid JSON" in problem.allowed
+
+
+def test_missing_field_names_the_field_not_the_enclosing_object(tiny_scene):
+    scene = tiny_scene()
+    del scene["brushes"][0]["bristle_length"]
+    with pytest.raises(SceneError) as info:
+        parse_scene(scene)
+    (problem,) = info.value.problems
+    assert problem.field == "brushes.0.bristle_length"
+    assert problem.value is None          # before: the whole brush dict
+    assert str(problem) == "brushes.0.bristle_length = None: required field is missing"

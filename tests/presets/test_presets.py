@@ -16,7 +16,7 @@ import engine
 from studio import presets
 
 EXPECTED = (
-    "rod_weight_release", "rod_tip_impulse", "rod_root_impulse",
+    "rod_weight_release", "rod_weight_static", "rod_tip_impulse", "rod_root_impulse",
     "wedge_30", "wedge_45", "wedge_60", "wedge_75",
     "spin_cube_20", "spin_cube_40", "spin_cube_60",
     "momentum_two_brushes", "momentum_spheres_cube",

@@ -349,3 +349,50 @@ def test_load_convergence_refuses_other_folders(tmp_path):
     (tmp_path / "convergence.json").write_text(json.dumps({"format": "other"}))
     with pytest.raises(ValueError):
         cv.load_convergence(tmp_path)
+
+
+# ------------------------------------------------------------------------------ refusals
+def test_tip_deflection_of_an_undamped_free_vibration_is_refused_before_running(tmp_path,
+                                                                                capsys):
+    """The bug this catches: a ladder of last frames of a free vibration (the seed's weight
+    release) reported as a convergence table with errors of -58 % and an order of 0.3."""
+    from studio.presets import preset_path
+
+    out = tmp_path / "conv"
+    code = main(["convergence", str(preset_path("rod_weight_release")), "--quantity",
+                 "tip_deflection", "--ladder", "n_nodes=3,5,9", "-o", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "tip_deflection needs a static scene" in err and "no damping" in err
+    assert "rod_weight_static" in err   # it says what to use instead
+    assert not out.exists()             # nothing ran
+
+
+def test_damped_scene_and_other_quantities_are_measurable():
+    from studio.presets import load_preset
+
+    cv.check_measurable(load_preset("rod_weight_static"), cv.parse_quantity("tip_deflection"))
+    cv.check_measurable(load_preset("rod_weight_release"), cv.parse_quantity("spectral_peak"))
+    scene = cone_scene()
+    scene["loads"][0]["profile"]["frequency"] = 5.0
+    with pytest.raises(cv.ConvergenceError, match="oscillating at 5 Hz"):
+        cv.check_measurable(engine.parse_scene(scene), cv.parse_quantity("tip_deflection"))
+
+
+def test_other_quantities_that_do_not_fit_the_scene_are_refused():
+    from studio.presets import load_preset
+
+    impulse = load_preset("rod_tip_impulse")
+    cv.check_measurable(impulse, cv.parse_quantity("spectral_peak:2"))
+    with pytest.raises(cv.ConvergenceError, match="needs a body driven by a stepped"):
+        cv.check_measurable(impulse, cv.parse_quantity("wedge_force@10mm"))
+    with pytest.raises(cv.ConvergenceError, match="needs a hinge or free body"):
+        cv.check_measurable(impulse, cv.parse_quantity("body_omega_after_first_contact"))
+    wedge = load_preset("wedge_60")   # 33 steps of 1 mm
+    cv.check_measurable(wedge, cv.parse_quantity("wedge_force@20mm"))
+    with pytest.raises(cv.ConvergenceError, match="down to 0.033 m only"):
+        cv.check_measurable(wedge, cv.parse_quantity("wedge_force@40mm"))
+    driven = cone_scene()
+    driven["loads"][0]["profile"]["frequency"] = 5.0   # driven to the end: no free vibration
+    with pytest.raises(cv.ConvergenceError, match="free vibration after the loads end"):
+        cv.check_measurable(engine.parse_scene(driven), cv.parse_quantity("spectral_peak"))

@@ -32,7 +32,7 @@ def test_form_values_map_to_options():
     conv = dict(_defaults("convergence"), dt_factor="  ")
     opts = form_options("convergence", conv, '{"reference": "finest", "ladder": "n_nodes=3,5"}')
     assert "dt_factor" not in opts and opts["reference"] == "finest"
-    assert opts["ladder"] == "n_nodes=3,5" and opts["scene"] == "rod_weight_release"
+    assert opts["ladder"] == "n_nodes=3,5" and opts["scene"] == "rod_weight_static"
     assert "no_unload" not in form_options("wedge", _defaults("wedge"))
 
 
