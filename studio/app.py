@@ -38,6 +38,9 @@ import numpy as np
 
 from . import ui_scene as us
 from . import ui_view as uv
+from .console import print_scene_error
+from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
 
 STREAM_HZ = 20.0          # at most this many live frames per second into the view
 POLL_S = 0.1              # job polling period
@@ -47,49 +50,6 @@ MAX_VIEW_SEGMENTS = 2_000_000  # above this the view draws every bristle as one 
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x")
 COLOR_MODES = ("bending moment", "deflection", "none")
 DEFAULT_DATA_DIR = "brush-studio-data"
-
-
-def demo_scene():
-    """The embedded default scene (studio/data/demo_scene.json)."""
-    import engine
-
-    from .cli import demo_scene_text
-
-    return engine.parse_scene(demo_scene_text())
-
-
-def load_preset_or_file(ref: str):
-    """A scene from a preset name (``studio.presets``), a JSON file path, or ``demo``."""
-    import engine
-
-    if ref in ("", "demo"):
-        return demo_scene()
-    path = Path(ref)
-    if path.suffix.lower() == ".json" or path.exists():
-        return engine.load_scene(path)
-    try:
-        from . import presets
-    except ImportError:
-        raise engine.SceneError.single("(preset)", ref, "no such file, and no presets "
-                                       "module to look the name up in") from None
-    try:
-        return presets.load_preset(ref)
-    except KeyError:
-        names = [p["name"] for p in presets.list_presets()]
-        raise engine.SceneError.single("(preset)", ref,
-                                       f"no such file or preset; presets: {names}") from None
-
-
-def preset_names() -> list[str]:
-    """'demo' (the embedded scene) and the names of static_presets/."""
-    names = ["demo"]
-    try:
-        from . import presets
-
-        names += [p["name"] for p in presets.list_presets()]
-    except Exception:
-        pass
-    return names
 
 
 def _fmt_s(s) -> str:
@@ -1135,12 +1095,10 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
     import engine
     import viser
 
-    from .cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, _print_scene_error
-
     try:
         scene = load_preset_or_file(preset or "demo")
     except engine.SceneError as exc:
-        _print_scene_error(exc, f"cannot open preset {preset!r}")
+        print_scene_error(exc, f"cannot open preset {preset!r}")
         return EXIT_BAD_INPUT
     from .jobs import JobManager
     from .serve_cli import is_loopback

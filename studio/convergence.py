@@ -40,13 +40,13 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .jsonable import jsonable as _to_json
+from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 
 
 def _json_null(value):
     return _to_json(value, nonfinite="null")
 
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
 CSV_COLUMNS = ("level", "n_nodes", "dt", "quantity", "error", "wall_s")
 TOLERANCES = (0.01, 0.05)
 FORMAT = "brush-studio-convergence"

@@ -37,8 +37,8 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 DEFAULT_OUTPUT = "fit-dissipation"
 
 

@@ -22,7 +22,8 @@ from pathlib import Path
 
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      run_many_from_args, write_json_atomic, write_outcomes)
-from .wedge import (EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK, TASK,
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .wedge import (TASK,
                     StudyInputError, add_protocol_options, apply_resolution,
                     protocol_from_args, resolve_scenes, validate_scenes, wedge_angle_deg)
 

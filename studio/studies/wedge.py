@@ -47,8 +47,8 @@ from typing import Optional
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      jsonable, report_progress, run_many_from_args, write_json_atomic,
                      write_outcomes)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
 TASK = "studio.studies.wedge:wedge_cycle"
 PROTOCOL_DEFAULTS = {
     "method": "quasi_static",  # or "dynamic": the seed's hold-until-steady windows
