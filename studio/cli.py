@@ -20,13 +20,13 @@ import threading
 from pathlib import Path
 from typing import Optional
 
-from . import __version__, app, convergence, serve_cli
+from . import __version__, app, serve_cli
 from .console import err as _err, print_scene_error as _print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .jsonable import jsonable
 from .presets import demo_scene_text
 from .studies import cli as studies_cli
-from .studies import dissipation
+from .studies import convergence, dissipation
 
 
 DEMO_DIR = "brush-studio-demo"

@@ -27,11 +27,12 @@ kept (engine result files stay readable after a crash) and a new worker takes it
 When a manager starts on a folder whose database lists ``running`` jobs (the previous server
 was killed), those are marked ``failed`` as interrupted; ``queued`` jobs are run.
 
-Studies run as jobs too (``submit_study``): the worker runs the study command (``brush-studio
-study NAME`` or ``convergence``) in-process with the options given as a dict (checked by the
-study's own parser; no output/scheduler options and no file paths from clients: scenes are
-preset names), writing into ``DATA/runs/<job_id>/study/``; its tqdm bars become the job's
-progress and a cancel interrupts it like Ctrl-C::
+Studies run as jobs too (``submit_study``): the options come as a dict, are checked and made
+the study's typed ``Options`` by :mod:`studio.studies.registry` (no output/scheduler options
+and no file paths from clients: scenes are preset names), and the worker calls the study's
+``run(options, DATA/runs/<job_id>/study/, progress=..., cancel=...)`` in-process: its progress
+callback becomes the job's progress, the job's cancel is its cancel flag (finished runs are
+kept, as with Ctrl-C) and what it prints goes into ``log.txt``::
 
     job_id = jobs.submit_study("wedge", {"preset": "wedge_60", "depth_mm": 2, "nodes": 3})
     jobs.wait(job_id).files          # ["force_depth.csv", "force_depth.png", ...]
@@ -135,7 +136,7 @@ _JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings":
 # columns added after the first release: added to an older database when it is opened
 _ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
                   ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
-                  ("message", "TEXT"))
+                  ("message", "TEXT"), ("resolved", "TEXT"))
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -197,208 +198,17 @@ class MeshError(ValueError):
 
 
 # ----------------------------------------------------------------------------- studies
-#: study name -> the module that adds its ``brush-studio`` subcommand (``convergence`` is a
-#: top-level command, the others are ``brush-studio study NAME``)
-STUDY_MODULES = {
-    "wedge": "studio.studies.wedge",
-    "spin": "studio.studies.spin",
-    "refinement": "studio.studies.refinement",
-    "sensitivity": "studio.studies.sensitivity",
-    "montecarlo": "studio.studies.sensitivity",
-    "rod": "studio.studies.rod",
-    "convergence": "studio.convergence",
-}
-STUDIES = tuple(STUDY_MODULES)
-#: options the job layer sets itself: a client may not choose where files go or which
-#: cluster runs them
-SERVER_OPTIONS = {"output": "the output folder is the job's own (DATA/runs/<id>/study/)",
-                  "o": "the output folder is the job's own (DATA/runs/<id>/study/)",
-                  "scheduler": "the Dask scheduler is chosen when the server starts "
-                               "(brush-studio serve --scheduler)",
-                  "workers": "a study job runs on one local Dask worker (or the server's "
-                             "--scheduler)",
-                  "no_progress": "progress is reported through the job",
-                  "quiet": "progress is reported through the job",
-                  "help": "not an option of a job"}
-#: options naming scenes: preset NAMES only, resolved by studio.presets.preset_path
-SCENE_OPTIONS = ("preset", "scene")
+# study names, option checking and errors live with the studies (studio.studies.registry)
+from .studies.registry import (SCENE_OPTIONS, SERVER_OPTIONS, STUDIES,  # noqa: E402,F401
+                               StudyOptionError, study_argv, study_options)
+
 STUDY_LOG = "log.txt"  # the study's printed output, in its output folder
 
 
-class StudyOptionError(ValueError):
-    """A study job refused: unknown study, unknown or bad option, a server-only option or a
-    file path where a preset name belongs. ``problems``: ``(option, value, message)``."""
-
-    def __init__(self, problems):
-        self.problems = [tuple(p) for p in problems]
-        super().__init__("; ".join(f"{o} = {v!r}: {m}" if v is not None else f"{o}: {m}"
-                                   for o, v, m in self.problems))
-
-    def as_dicts(self) -> list[dict]:
-        return [{"option": o, "value": jsonable(v), "message": m} for o, v, m in self.problems]
-
-
-def _study_parser_class():
-    import argparse
-
-    class _Parser(argparse.ArgumentParser):
-        """argparse that raises instead of printing and exiting."""
-
-        def error(self, message):
-            raise StudyOptionError([("options", None, message)])
-
-        def exit(self, status=0, message=None):
-            raise StudyOptionError([("options", None, (message or "").strip()
-                                     or f"argparse exit {status}")])
-
-    return _Parser
-
-
-def study_parser(study: str):
-    """The argparse parser of ``study``'s command (the CLI's own options, errors raised as
-    :class:`StudyOptionError`)."""
-    import importlib
-
-    if study not in STUDY_MODULES:
-        raise StudyOptionError([("study", study, f"unknown study; one of {list(STUDIES)}")])
-    root = _study_parser_class()(prog="brush-studio study", add_help=False)
-    sub = root.add_subparsers(dest="study")
-    mod = importlib.import_module(STUDY_MODULES[study])
-    if study == "convergence":
-        mod.register(sub)
-    else:
-        mod.add_parser(sub)
-    parser = sub.choices[study]
-    parser.prog = f"brush-studio {'' if study == 'convergence' else 'study '}{study}"
-    return parser
-
-
-def study_options(study: str) -> list[dict]:
-    """The options a client may give ``study``: name (the options dict's key), kind (flag,
-    value, list), help, default, required."""
-    import argparse
-
-    out = []
-    for a in study_parser(study)._actions:
-        if a.dest in SERVER_OPTIONS or a.dest in ("func",) or isinstance(a, argparse._HelpAction):
-            continue
-        if isinstance(a, argparse._StoreTrueAction):
-            kind = "flag"
-        elif isinstance(a, argparse._AppendAction):
-            kind = "list"
-        else:
-            kind = "value"
-        default = a.default if a.default is not argparse.SUPPRESS else None
-        out.append({"name": a.dest, "kind": kind, "help": a.help or "",
-                    "default": jsonable(default), "required": bool(a.required),
-                    "choices": jsonable(list(a.choices)) if a.choices else None,
-                    "preset": a.dest in SCENE_OPTIONS})
-    return out
-
-
-def _resolve_preset(option: str, value) -> str:
-    """A preset NAME -> its file (studio.presets.preset_path); anything else refused."""
-    if not isinstance(value, str) or not value.strip():
-        raise StudyOptionError([(option, value, "must be a preset name (GET /api/presets)")])
-    try:
-        from .presets import list_presets, preset_path
-    except ImportError as exc:  # pragma: no cover (the presets are part of the project)
-        raise StudyOptionError([(option, value, f"presets unavailable: {exc}")]) from None
-    try:
-        return str(preset_path(value))
-    except KeyError:
-        names = [p["name"] for p in list_presets()]
-        raise StudyOptionError([(option, value, f"not a preset name (file paths are not "
-                                                f"accepted); presets: {names}")]) from None
-
-
-def study_argv(study: str, options: Optional[dict]) -> list[str]:
-    """The command-line arguments of ``study`` for ``options`` (keys: option names with
-    ``_`` or ``-``, e.g. ``{"preset": "wedge_60", "depth_mm": 3, "nodes": 4}`` ->
-    ``["--preset=.../wedge_60.json", "--depth-mm=3", "--nodes=4"]``), checked with the
-    study's own parser. Flags take true/false, list options a list (or one value), other
-    options a value (a list is joined with commas: ``"angles": [30, 60]`` -> ``30,60``).
-    Output, scheduler and worker options are refused (the job layer sets them); scenes are
-    preset names only. Raises :class:`StudyOptionError` naming every bad option."""
-    import argparse
-
-    parser = study_parser(study)
-    if options is None:
-        options = {}
-    if not isinstance(options, dict):
-        raise StudyOptionError([("options", type(options).__name__,
-                                 "must be an object of option: value")])
-    actions = {a.dest: a for a in parser._actions if a.dest not in ("help", "func")}
-    allowed = sorted(d for d in actions if d not in SERVER_OPTIONS)
-    problems: list = []
-    argv: list[str] = []
-    positional: list[str] = []
-    for key, value in options.items():
-        k = str(key).lstrip("-").replace("-", "_")
-        if k in SERVER_OPTIONS:
-            problems.append((str(key), value, f"not accepted: {SERVER_OPTIONS[k]}"))
-            continue
-        a = actions.get(k)
-        if a is None:
-            problems.append((str(key), value, f"unknown option of study {study!r}; "
-                                              f"options: {allowed}"))
-            continue
-        flag = max(a.option_strings, key=len) if a.option_strings else None
-        try:
-            if isinstance(a, argparse._StoreTrueAction):
-                if not isinstance(value, bool):
-                    raise StudyOptionError([(str(key), value, "must be true or false")])
-                if value:
-                    argv.append(flag)
-                continue
-            if value is None:
-                continue
-            values = list(value) if isinstance(value, (list, tuple)) else [value]
-            for v in values:
-                if isinstance(v, (dict, list, tuple)) or isinstance(v, bool):
-                    raise StudyOptionError([(str(key), value, "must be a number or text "
-                                                              "(or a list of them)")])
-                if isinstance(v, float) and not math.isfinite(v):
-                    raise StudyOptionError([(str(key), value, "must be finite")])
-                if "\x00" in str(v) or "\n" in str(v):
-                    raise StudyOptionError([(str(key), value, "bad characters")])
-            if k in SCENE_OPTIONS:
-                values = [_resolve_preset(str(key), v) for v in values]
-            if not a.option_strings:  # a positional (convergence's scene)
-                if len(values) != 1:
-                    raise StudyOptionError([(str(key), value, "takes one value")])
-                positional.append(str(values[0]))
-            elif isinstance(a, argparse._AppendAction):
-                argv += [f"{flag}={v}" for v in values]
-            else:
-                argv.append(f"{flag}=" + ",".join(str(v) for v in values))
-        except StudyOptionError as exc:
-            problems += exc.problems
-    if problems:
-        raise StudyOptionError(problems)
-    argv = positional + argv
-    try:
-        parser.parse_args(argv + ["--output", "/nonexistent/validation-only"])
-    except StudyOptionError as exc:
-        raise StudyOptionError([("options", None, f"{exc.problems[0][2]} (study {study!r}; "
-                                                  f"options: {allowed})")]) from None
-    return argv
-
-
 def _study_files(folder: Path) -> list[str]:
-    """The study's output files, relative POSIX paths, sorted (hidden and scratch files and
-    links left out)."""
-    if not folder.is_dir():
-        return []
-    out = []
-    for root, dirs, files in os.walk(folder, followlinks=False):
-        dirs[:] = [d for d in dirs if not d.startswith(".")]
-        for f in files:
-            p = Path(root) / f
-            if f.startswith(".") or f.endswith(".tmp") or p.is_symlink() or not p.is_file():
-                continue
-            out.append(p.relative_to(folder).as_posix())
-    return sorted(out)
+    from .studies.api import study_files
+
+    return study_files(folder)
 
 
 def _tail(path: Path, n: int = 12) -> str:
@@ -441,8 +251,9 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
                 _, seq, job_id, scene_json, h5_path = msg
                 _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path)
             else:
-                _, seq, job_id, study, argv, out_dir = msg
-                _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, argv, out_dir)
+                _, seq, job_id, study, options, argv, out_dir = msg
+                _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, argv,
+                              out_dir)
         except (BrokenPipeError, EOFError, OSError):
             return  # the manager is gone
 
@@ -493,120 +304,61 @@ def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) 
                                 "error": error, "finished": time.time()}))
 
 
-def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, argv, out_dir) -> None:
-    """Run a study command in this process (its runner starts its own local Dask cluster,
-    or uses the server's scheduler), its printed output into ``out_dir/log.txt``, its tqdm
-    bars reported as the job's progress. A cancel interrupts it like Ctrl-C (the study
-    commands keep finished runs and return 130)."""
+class _JobCancel:
+    """The cancel flag a study job's ``run`` polls (``is_set``): the manager's cancel of this
+    job through shared memory, or the manager gone."""
+
+    def __init__(self, cancel_seq, seq: int, parent_pid: int):
+        self.cancel_seq, self.seq, self.parent_pid = cancel_seq, seq, parent_pid
+
+    def is_set(self) -> bool:
+        return self.cancel_seq.value == self.seq or os.getppid() != self.parent_pid
+
+
+def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, argv,
+                  out_dir) -> None:
+    """Run a study in this process through its typed API (``registry.get(study).run``):
+    its progress callback reports to the manager, its cancel is the job's; what it prints
+    goes into ``out_dir/log.txt``."""
     import contextlib
 
-    import tqdm as tqdm_module
+    from .exit_codes import EXIT_OK, describe
+    from .studies import registry
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     log_path = out / STUDY_LOG
     t0 = time.time()
-    send_lock = threading.Lock()
-    interrupt = threading.Event()   # set when a cancel interrupts the study
+    cancel = _JobCancel(cancel_seq, seq, parent_pid)
 
-    def cancelled() -> bool:
-        return cancel_seq.value == seq or os.getppid() != parent_pid
-
-    def send(kind: str, data: dict) -> None:
-        with send_lock:
-            conn.send((kind, job_id, data))
-
-    last = [0.0]
-
-    def report(bar) -> None:
-        now = time.monotonic()
-        total = bar.total or 0
-        done = total and bar.n >= total
-        if now - last[0] < 0.25 and not done:
-            return
-        last[0] = now
-        frac = min(max(float(bar.n) / total, 0.0), 1.0) if total else 0.0
-        desc = (bar.desc or "progress").rstrip(": ")
-        msg = f"{desc}: {bar.n:.4g}/{total:g} {bar.unit}" if total else desc
+    def progress(fraction: float, message: str) -> None:
         try:
-            send("study_progress", {"progress": frac, "message": msg})
+            conn.send(("study_progress", job_id, {"progress": fraction, "message": message}))
         except (OSError, ValueError):
             pass
 
-    original_tqdm = tqdm_module.tqdm
-    sink = open(os.devnull, "w")
-
-    class JobBar(original_tqdm):
-        """The study's bars: drawn nowhere, reported to the manager."""
-
-        monitor_interval = 0
-
-        def __init__(self, *args, **kwargs):
-            kwargs["disable"] = False
-            kwargs["file"] = sink
-            kwargs.pop("dynamic_ncols", None)
-            super().__init__(*args, **kwargs)
-
-        def display(self, *args, **kwargs):
-            report(self)
-            return super().display(*args, **kwargs)
-
-    def on_sigint(signum, frame):
-        if interrupt.is_set():
-            raise KeyboardInterrupt  # a cancel (a terminal's Ctrl-C alone is the manager's)
-
-    stop_watch = threading.Event()
-
-    def watch() -> None:
-        while not stop_watch.wait(0.1):
-            if cancelled():
-                interrupt.set()
-                os.kill(os.getpid(), signal.SIGINT)
-                return
-
     code, error = 1, None
-    previous = signal.signal(signal.SIGINT, on_sigint)
-    watcher = threading.Thread(target=watch, name="study-cancel", daemon=True)
-    tqdm_module.tqdm = JobBar
-    try:
-        with open(log_path, "a", buffering=1) as log, contextlib.redirect_stdout(log), \
-                contextlib.redirect_stderr(log):
-            print(f"$ brush-studio {'' if study == 'convergence' else 'study '}{study} "
-                  + " ".join(argv), flush=True)
-            watcher.start()
-            try:
-                args = study_parser(study).parse_args(argv)
-                code = int(args.func(args) or 0)
-            except KeyboardInterrupt:
-                code = 130
-            except StudyOptionError as exc:
-                code, error = 2, str(exc)
-            except SystemExit as exc:
-                code = exc.code if isinstance(exc.code, int) else 1
-            except Exception as exc:  # a bug in a study: its traceback in the log
-                code = 1
-                error = f"{type(exc).__name__}: {exc}"
-                traceback.print_exc()
-            finally:
-                stop_watch.set()
-            print(f"exit code {code}", flush=True)
-    except KeyboardInterrupt:  # a cancel arriving after the study had returned
-        code = 130 if code == 0 and interrupt.is_set() else code
-    finally:
-        stop_watch.set()
-        tqdm_module.tqdm = original_tqdm
-        signal.signal(signal.SIGINT, previous)
-        sink.close()
-    if interrupt.is_set() and code != 0:
+    with open(log_path, "a", buffering=1) as log, contextlib.redirect_stdout(log), \
+            contextlib.redirect_stderr(log):
+        entry = registry.get(study)
+        print("$ " + " ".join(w for w in ("brush-studio", entry.command, study) if w) + " "
+              + " ".join(argv), flush=True)
+        try:
+            result = entry.run(entry.options_from_dict(options), out, progress=progress,
+                               cancel=cancel)
+            code = result.exit_code
+        except Exception as exc:  # a bug in a study: its traceback in the log
+            error = f"{type(exc).__name__}: {exc}"
+            traceback.print_exc()
+        print(f"exit code {code}", flush=True)
+    if cancel.is_set() and code != EXIT_OK:
         status, error = "cancelled", "cancelled"
-    elif code == 0:
+    elif code == EXIT_OK:
         status = "completed"
     else:
         status = "failed"
-        what = {1: "some runs failed", 2: "bad input", 130: "interrupted"}.get(
-            code, f"exit code {code}")
         detail = error or _tail(log_path)
-        error = f"the study ended with exit code {code} ({what})" + \
+        error = f"the study ended with exit code {code} ({describe(code)})" + \
             (f":\n{detail}" if detail else "")
     summary = {"exit_code": code, "wall_s": time.time() - t0, "study": study,
                "files": len(_study_files(out))}
@@ -618,8 +370,8 @@ def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, argv, out_di
             summary["failed_runs"] = data.get("failed")
         except (OSError, ValueError, AttributeError):
             pass
-    send("done", {"status": status, "summary": jsonable(summary), "error": error,
-                  "finished": time.time()})
+    conn.send(("done", job_id, {"status": status, "summary": jsonable(summary),
+                                "error": error, "finished": time.time()}))
 
 
 class _Worker:
@@ -764,21 +516,25 @@ class JobManager:
         :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
-        argv = study_argv(study, options)
+        from .studies.registry import make_options, options_to_dict
+
+        typed, argv = make_options(study, options, scheduler=self.scheduler)
+        resolved = options_to_dict(typed)
         if name is None or not str(name).strip():
             name = f"{study} study"
         name = str(name).strip()[:200]
         job_id = uuid.uuid4().hex[:12]
         run_dir = self.runs_dir / job_id
         (run_dir / "study").mkdir(parents=True, exist_ok=False)
-        spec = {"study": study, "options": jsonable(options or {}), "argv": argv}
+        spec = {"study": study, "options": jsonable(options or {}), "argv": argv,
+                "resolved": resolved}
         (run_dir / "study_job.json").write_text(json.dumps(spec, indent=1) + "\n")
         with self._lock:
             self._db.execute(
                 "INSERT INTO jobs (id, name, status, created, scene, kind, study, options, "
-                "argv) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?)",
+                "argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?, ?)",
                 (job_id, name, time.time(), study, json.dumps(spec["options"]),
-                 json.dumps(argv)))
+                 json.dumps(argv), json.dumps(resolved)))
             self._changed.notify_all()
         self._wake()
         return job_id
@@ -1155,11 +911,11 @@ class JobManager:
         for w in idle:
             with self._lock:
                 row = self._db.execute(
-                    "SELECT seq, id, scene, kind, study, argv FROM jobs WHERE status = "
-                    "'queued' ORDER BY seq LIMIT 1").fetchone()
+                    "SELECT seq, id, scene, kind, study, argv, resolved FROM jobs WHERE "
+                    "status = 'queued' ORDER BY seq LIMIT 1").fetchone()
                 if row is None:
                     return
-                seq, job_id, scene_json, kind, study, argv = row
+                seq, job_id, scene_json, kind, study, argv, resolved = row
                 cur = self._db.execute(
                     "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
                     "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
@@ -1175,7 +931,8 @@ class JobManager:
                 argv = json.loads(argv or "[]") + ["--output", str(out)]
                 argv += ["--scheduler", self.scheduler] if self.scheduler else \
                     ["--workers", "1"]
-                msg = ("study", seq, job_id, study, argv, str(out))
+                msg = ("study", seq, job_id, study, self._study_options(job_id, study, resolved),
+                       argv, str(out))
             else:
                 h5 = self.runs_dir / job_id / "result.h5"
                 h5.parent.mkdir(parents=True, exist_ok=True)
@@ -1184,6 +941,19 @@ class JobManager:
                 w.conn.send(msg)
             except (OSError, ValueError):
                 pass  # the worker died: its sentinel reports it and fails the job
+
+    def _study_options(self, job_id: str, study: str, resolved: Optional[str]) -> dict:
+        """A study job's typed options as data, run on this manager's scheduler (or one
+        worker in the job's process). A job queued by an older version has none stored:
+        they are made again from the options it was submitted with."""
+        from .studies.registry import make_options, options_to_dict
+
+        if resolved:
+            data = json.loads(resolved)
+        else:
+            data = options_to_dict(make_options(study, self.get(job_id).options)[0])
+        data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
+        return data
 
     def _drain(self, w: _Worker) -> None:
         while True:

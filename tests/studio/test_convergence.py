@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio import convergence as cv
+from studio.studies import convergence as cv
 from studio.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "engine"))

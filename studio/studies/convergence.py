@@ -39,8 +39,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .jsonable import jsonable as _to_json
-from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from ..jsonable import jsonable as _to_json
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 
 
 def _json_null(value):
@@ -797,10 +797,15 @@ def _run_serial(specs, out_dir: Path, progress: bool) -> list[dict]:
 
     import engine
 
+    from studio.studies import api
+
     runs = out_dir / "runs"
     runs.mkdir(parents=True, exist_ok=True)
     out = []
-    for spec in tqdm(specs, desc="levels", disable=not progress, unit="run"):
+    session = api.current()
+    for i, spec in enumerate(tqdm(specs, desc="levels", disable=not progress, unit="run")):
+        session.report(i / len(specs), f"levels: {i}/{len(specs)} run", force=True)
+        session.check()
         h5, meta = runs / f"{spec.run_id}.h5", runs / f"{spec.run_id}.json"
         if meta.exists():
             old = json.loads(meta.read_text())
@@ -993,7 +998,7 @@ def run_ladder(scene, out_dir, *, n_nodes: Optional[Sequence[int]] = None,
     specs = [RunSpec(run_id=lv.run_id, scene=lv.scene,
                      params={"level": lv.level, "n_nodes": lv.n_nodes,
                              "dt_factor": lv.dt_factor, "warm_up": warm_up},
-                     task="studio.convergence:run_level") for lv in levels]
+                     task="studio.studies.convergence:run_level") for lv in levels]
     records = _run_serial(specs, out_dir, progress) if serial else \
         _run_dask(specs, out_dir, scheduler, workers, progress)
     return levels, records
@@ -1171,29 +1176,68 @@ def _err(msg: str) -> None:
     print(msg, file=sys.stderr)
 
 
+@dataclass
+class Options:
+    """``brush-studio convergence``: ``scene`` (a scene file) run at a ladder of
+    resolutions (``ladder`` "n_nodes=3,5,9" and/or ``dt_factor`` "1,0.5"), ``quantity``
+    measured in each against ``reference``."""
+
+    scene: str
+    quantity: str
+    ladder: Optional[str] = None
+    dt_factor: Optional[str] = None
+    reference: str = "auto"          # auto | analytic | richardson | finest
+    serial: bool = False             # the levels one after another in this process
+    scheduler: Optional[str] = None
+    workers: Optional[int] = None
+    quiet: bool = False              # no progress bar
+
+    @classmethod
+    def from_args(cls, args) -> "Options":
+        import dataclasses
+
+        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
+
+    def to_dict(self) -> dict:
+        import dataclasses
+
+        return dataclasses.asdict(self)
+
+
+def run(options: Options, out_dir, *, progress=None, cancel=None):
+    """The convergence study of ``options`` into ``out_dir``: a ``StudyResult``."""
+    from studio.studies import api
+
+    return api.run_body("convergence", _run_study, options, out_dir, progress, cancel)
+
+
 def _cmd_convergence(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     import engine
 
     try:
-        q = parse_quantity(args.quantity)
-        n_nodes = parse_ladder(args.ladder) if args.ladder else None
-        factors = parse_factors(args.dt_factor) if args.dt_factor else None
+        q = parse_quantity(options.quantity)
+        n_nodes = parse_ladder(options.ladder) if options.ladder else None
+        factors = parse_factors(options.dt_factor) if options.dt_factor else None
         if n_nodes is None and factors is None:
             raise ConvergenceError("give --ladder n_nodes=... and/or --dt-factor ...")
-        scene = engine.load_scene(args.scene)
+        scene = engine.load_scene(options.scene)
     except ConvergenceError as exc:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
     except engine.SceneError as exc:
-        _err(f"invalid scene {args.scene}: {len(exc.problems)} problem(s)")
+        _err(f"invalid scene {options.scene}: {len(exc.problems)} problem(s)")
         for p in exc.problems:
             _err(f"  {p}")
         return EXIT_BAD_INPUT
     try:
-        table = run_convergence(scene, q, args.output, n_nodes=n_nodes, dt_factors=factors,
-                                reference=args.reference, serial=args.serial,
-                                scheduler=args.scheduler, workers=args.workers,
-                                progress=not args.quiet)
+        table = run_convergence(scene, q, out, n_nodes=n_nodes, dt_factors=factors,
+                                reference=options.reference, serial=options.serial,
+                                scheduler=options.scheduler, workers=options.workers,
+                                progress=not options.quiet)
     except ConvergenceError as exc:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
@@ -1206,7 +1250,7 @@ def _cmd_convergence(args) -> int:
         _err("cancelled: finished levels are kept in the runs folder and reused next time")
         return EXIT_CANCELLED
     print(table.text())
-    print(f"wrote {Path(args.output) / 'convergence.csv'}, convergence.h5, convergence.json, "
+    print(f"wrote {Path(out) / 'convergence.csv'}, convergence.h5, convergence.json, "
           "convergence.png")
     return EXIT_OK if all(r["status"] in ("completed", "stopped") for r in table.rows) \
         else EXIT_FAILED
