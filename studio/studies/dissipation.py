@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_OK
 
 DEFAULT_OUTPUT = "fit-dissipation"
 

@@ -21,8 +21,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Optional
 
 from ..jsonable import jsonable as _to_json
-from . import convergence, dissipation, refinement, rod, sensitivity, spin, wedge  # noqa: F401
-from .cli import STUDY_MODULES  # noqa: F401  (the ``study`` subcommands, in help order)
+from . import convergence, refinement, rod, sensitivity, spin, wedge
 
 
 def _json(value: Any) -> Any:
