@@ -1027,62 +1027,6 @@ def _safe_name(name: str) -> str:
     return keep or "scene"
 
 
-# =========================================================================== HTTP beside
-def make_api_app(jobs, studio: Studio, viser_port: int, token: Optional[str] = None):
-    """The HTTP API app (``studio.server.create_app``, when available) plus the studio's own
-    routes ``/studio`` (open on a preset) and ``/studio/state``."""
-    from fastapi import HTTPException
-    from fastapi.responses import RedirectResponse
-
-    from .server import create_app
-
-    app = create_app(jobs, token=token)
-
-    def open_studio(request_host: str, preset: Optional[str]):
-        if preset:
-            import engine
-
-            if preset not in preset_names():  # names only: no file paths from a URL
-                raise HTTPException(404, detail=f"no preset {preset!r}; presets: "
-                                                f"{preset_names()}")
-            try:
-                load_preset_or_file(preset)
-            except engine.SceneError as exc:
-                raise HTTPException(422, detail=[str(p) for p in exc.problems])
-            studio.load_preset(preset)
-        host = request_host.split(":")[0] if request_host else "127.0.0.1"
-        return RedirectResponse(f"http://{host}:{viser_port}/", status_code=307)
-
-    from fastapi import Header
-
-    # (no ``Request`` annotation: with postponed annotations FastAPI resolves them in this
-    # module's globals, where the locally imported names are not)
-    @app.get("/studio")
-    def studio_landing(preset: Optional[str] = None, host: Optional[str] = Header(None)):
-        """Open the studio, on ``preset`` (a name from GET /studio/presets) if given."""
-        return open_studio(host or "", preset)
-
-    @app.get("/studio/presets")
-    def studio_presets():
-        return {"presets": preset_names()}
-
-    @app.get("/studio/state")
-    def studio_state():
-        return studio.state()
-
-    return app
-
-
-def _serve_api(app, host: str, port: int):
-    import uvicorn
-
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning")
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, name="studio-api", daemon=True)
-    thread.start()
-    return server, thread
-
-
 # =========================================================================== CLI
 def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] = None,
                data_dir: Path = Path(DEFAULT_DATA_DIR), workers: Optional[int] = None,
@@ -1120,8 +1064,10 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         api_port = port + 1
     if api_port > 0:
         try:
+            from .server.studio_routes import make_api_app, serve_in_thread
+
             app = make_api_app(jobs, studio, viser_port=port, token=token)
-            api, _ = _serve_api(app, host, api_port)
+            api, _ = serve_in_thread(app, host, api_port)
         except Exception as exc:
             print(f"studio: HTTP API not served ({type(exc).__name__}: {exc})")
     print(f"Brush Studio: http://{host}:{port}/" +

@@ -15,18 +15,13 @@ import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Optional
 
-from ..jsonable import jsonable as _to_json
+from ..jsonable import jsonable_null as jsonable  # strict JSON, non-finite as null
 
 STATUSES = ("queued", "running", "completed", "stopped", "failed", "cancelled")
 FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
 _JOB_ID = re.compile(r"^[0-9a-f]{12}$")
-
-
-def jsonable(value: Any) -> Any:
-    """Strict JSON for API answers: non-finite floats become null."""
-    return _to_json(value, nonfinite="null")
 
 
 # ----------------------------------------------------------------------------- job info

@@ -18,14 +18,10 @@ import argparse
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Optional
+from typing import Callable, Optional
 
-from ..jsonable import jsonable as _to_json
+from ..jsonable import jsonable_null as _json
 from . import convergence, refinement, rod, sensitivity, spin, wedge
-
-
-def _json(value: Any) -> Any:
-    return _to_json(value, nonfinite="null")
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,6 @@ from .api import ExecutionOptions, StudyResult
 ROD_LENGTH = 0.4
 ROD_RADIUS = 1.42e-3 / 2
 STEEL = {"youngs_modulus": 200e9, "poisson_ratio": 0.3, "density": 7640.0}
-BETA_L = (1.8751, 4.6941, 7.8548)     # cantilever eigenvalues beta_n L
 ROOT_IMPULSE_AT = 0.0458              # m from the root (seed 4.1.3)
 
 CASES = ("weight_release", "tip_impulse", "root_impulse")
@@ -71,11 +70,10 @@ def cantilever_frequencies(length: float = ROD_LENGTH, radius: float = ROD_RADIU
                            youngs_modulus: float = STEEL["youngs_modulus"],
                            density: float = STEEL["density"], n_modes: int = 3) -> list[float]:
     """Euler-Bernoulli bending frequencies (Hz) of a uniform clamped-free rod:
-    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))``."""
-    area = math.pi * radius ** 2
-    second_moment = math.pi * radius ** 4 / 4
-    root = math.sqrt(youngs_modulus * second_moment / (density * area * length ** 4))
-    return [bl ** 2 / (2 * math.pi) * root for bl in BETA_L[:n_modes]]
+    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`studio.studies.reference`)."""
+    from .reference import cantilever_frequencies as frequencies
+
+    return frequencies(length, radius, youngs_modulus, density, n_modes)
 
 
 # ----------------------------------------------------------------------------- spectra
