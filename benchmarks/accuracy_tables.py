@@ -1,6 +1,6 @@
 """Measure the tables and plots of docs/accuracy.md: error against wall time for the
 verification cases, with the convergence machinery of ``brush-studio convergence``
-(``studio/convergence.py``).
+(``studio/studies/convergence/``).
 
     python benchmarks/accuracy_tables.py [--cases rod_frequencies,rod_static,...]
                                          [--out DIR] [--img docs/img]
@@ -51,7 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import engine  # noqa: E402
-from studio import convergence as cv  # noqa: E402
+from studio.studies import convergence as cv  # noqa: E402
 
 PRESETS = ROOT / "static_presets"
 

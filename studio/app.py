@@ -38,6 +38,9 @@ import numpy as np
 
 from . import ui_scene as us
 from . import ui_view as uv
+from .console import print_scene_error
+from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
 
 STREAM_HZ = 20.0          # at most this many live frames per second into the view
 POLL_S = 0.1              # job polling period
@@ -47,49 +50,6 @@ MAX_VIEW_SEGMENTS = 2_000_000  # above this the view draws every bristle as one 
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x")
 COLOR_MODES = ("bending moment", "deflection", "none")
 DEFAULT_DATA_DIR = "brush-studio-data"
-
-
-def demo_scene():
-    """The embedded default scene (studio/data/demo_scene.json)."""
-    import engine
-
-    from .cli import demo_scene_text
-
-    return engine.parse_scene(demo_scene_text())
-
-
-def load_preset_or_file(ref: str):
-    """A scene from a preset name (``studio.presets``), a JSON file path, or ``demo``."""
-    import engine
-
-    if ref in ("", "demo"):
-        return demo_scene()
-    path = Path(ref)
-    if path.suffix.lower() == ".json" or path.exists():
-        return engine.load_scene(path)
-    try:
-        from . import presets
-    except ImportError:
-        raise engine.SceneError.single("(preset)", ref, "no such file, and no presets "
-                                       "module to look the name up in") from None
-    try:
-        return presets.load_preset(ref)
-    except KeyError:
-        names = [p["name"] for p in presets.list_presets()]
-        raise engine.SceneError.single("(preset)", ref,
-                                       f"no such file or preset; presets: {names}") from None
-
-
-def preset_names() -> list[str]:
-    """'demo' (the embedded scene) and the names of static_presets/."""
-    names = ["demo"]
-    try:
-        from . import presets
-
-        names += [p["name"] for p in presets.list_presets()]
-    except Exception:
-        pass
-    return names
 
 
 def _fmt_s(s) -> str:
@@ -1067,62 +1027,6 @@ def _safe_name(name: str) -> str:
     return keep or "scene"
 
 
-# =========================================================================== HTTP beside
-def make_api_app(jobs, studio: Studio, viser_port: int, token: Optional[str] = None):
-    """The HTTP API app (``studio.server.create_app``, when available) plus the studio's own
-    routes ``/studio`` (open on a preset) and ``/studio/state``."""
-    from fastapi import HTTPException
-    from fastapi.responses import RedirectResponse
-
-    from .server import create_app
-
-    app = create_app(jobs, token=token)
-
-    def open_studio(request_host: str, preset: Optional[str]):
-        if preset:
-            import engine
-
-            if preset not in preset_names():  # names only: no file paths from a URL
-                raise HTTPException(404, detail=f"no preset {preset!r}; presets: "
-                                                f"{preset_names()}")
-            try:
-                load_preset_or_file(preset)
-            except engine.SceneError as exc:
-                raise HTTPException(422, detail=[str(p) for p in exc.problems])
-            studio.load_preset(preset)
-        host = request_host.split(":")[0] if request_host else "127.0.0.1"
-        return RedirectResponse(f"http://{host}:{viser_port}/", status_code=307)
-
-    from fastapi import Header
-
-    # (no ``Request`` annotation: with postponed annotations FastAPI resolves them in this
-    # module's globals, where the locally imported names are not)
-    @app.get("/studio")
-    def studio_landing(preset: Optional[str] = None, host: Optional[str] = Header(None)):
-        """Open the studio, on ``preset`` (a name from GET /studio/presets) if given."""
-        return open_studio(host or "", preset)
-
-    @app.get("/studio/presets")
-    def studio_presets():
-        return {"presets": preset_names()}
-
-    @app.get("/studio/state")
-    def studio_state():
-        return studio.state()
-
-    return app
-
-
-def _serve_api(app, host: str, port: int):
-    import uvicorn
-
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning")
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, name="studio-api", daemon=True)
-    thread.start()
-    return server, thread
-
-
 # =========================================================================== CLI
 def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] = None,
                data_dir: Path = Path(DEFAULT_DATA_DIR), workers: Optional[int] = None,
@@ -1135,12 +1039,10 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
     import engine
     import viser
 
-    from .cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, _print_scene_error
-
     try:
         scene = load_preset_or_file(preset or "demo")
     except engine.SceneError as exc:
-        _print_scene_error(exc, f"cannot open preset {preset!r}")
+        print_scene_error(exc, f"cannot open preset {preset!r}")
         return EXIT_BAD_INPUT
     from .jobs import JobManager
     from .serve_cli import is_loopback
@@ -1162,8 +1064,10 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         api_port = port + 1
     if api_port > 0:
         try:
+            from .server.studio_routes import make_api_app, serve_in_thread
+
             app = make_api_app(jobs, studio, viser_port=port, token=token)
-            api, _ = _serve_api(app, host, api_port)
+            api, _ = serve_in_thread(app, host, api_port)
         except Exception as exc:
             print(f"studio: HTTP API not served ({type(exc).__name__}: {exc})")
     print(f"Brush Studio: http://{host}:{port}/" +

@@ -12,7 +12,6 @@ another engine error), 2 bad input (an invalid scene, a bad command line), 130 c
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import math
 import signal
@@ -21,39 +20,24 @@ import threading
 from pathlib import Path
 from typing import Optional
 
-from . import __version__
+from . import __version__, app, serve_cli
+from .console import err as _err, print_scene_error as _print_scene_error
+from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .jsonable import jsonable
+from .presets import demo_scene_text
+from .studies import cli as studies_cli
+from .studies import convergence, dissipation
 
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_BAD_INPUT = 2
-EXIT_CANCELLED = 130
 
 DEMO_DIR = "brush-studio-demo"
 
 # Modules that add their own subcommands: each has ``register(subparsers)`` and imports its
-# heavy dependencies (dask, fastapi, viser) only inside the command it runs.
-COMMAND_MODULES: tuple[str, ...] = (
-    "studio.app",
-    "studio.convergence",
-    "studio.studies.cli",
-    "studio.serve_cli",
-    "studio.studies.dissipation",
-)
+# heavy dependencies (dask, fastapi, viser) only inside the command it runs. This module is
+# the composition root: it imports them, none of them imports it.
+COMMAND_MODULES = (app, convergence, studies_cli, serve_cli, dissipation)
 
 
 # ----------------------------------------------------------------------------- output helpers
-def _err(msg: str) -> None:
-    print(msg, file=sys.stderr)
-
-
-def _print_scene_error(exc, what: str) -> None:
-    """Every problem of a SceneError, one per line: ``field = value: allowed``."""
-    _err(f"{what}: {len(exc.problems)} problem(s)")
-    for p in exc.problems:
-        _err(f"  {p}")
-
-
 def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
@@ -263,13 +247,6 @@ def _cmd_run(args) -> int:
 
 
 # ----------------------------------------------------------------------------- demo
-def demo_scene_text() -> str:
-    """The JSON text of the embedded default scene."""
-    from importlib.resources import files
-
-    return (files("studio") / "data" / "demo_scene.json").read_text()
-
-
 def _describe_demo(scene) -> str:
     try:
         brush = scene.brushes[0]
@@ -525,8 +502,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("result", metavar="RESULT.h5")
     i.set_defaults(func=_cmd_info)
 
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)
+    for module in COMMAND_MODULES:
+        module.register(sub)
     return p
 
 

@@ -28,3 +28,9 @@ def jsonable(value: Any, nonfinite: str = "text") -> Any:
     if hasattr(value, "tolist"):  # numpy arrays and scalars
         return jsonable(value.tolist(), nonfinite)
     return str(value)
+
+
+def jsonable_null(value: Any) -> Any:
+    """:func:`jsonable` with non-finite floats as null: what the HTTP API and the job
+    database hold."""
+    return jsonable(value, nonfinite="null")

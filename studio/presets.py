@@ -18,7 +18,8 @@ import os
 import re
 from pathlib import Path
 
-__all__ = ["PRESET_DIR", "list_presets", "preset_path", "load_preset"]
+__all__ = ["PRESET_DIR", "list_presets", "preset_path", "load_preset", "demo_scene_text",
+           "demo_scene", "load_preset_or_file", "preset_names"]
 
 _DEFAULT_DIR = Path(__file__).resolve().parents[1] / "static_presets"
 PRESET_DIR: Path = Path(os.environ.get("BRUSH_STUDIO_PRESETS") or _DEFAULT_DIR)
@@ -80,3 +81,45 @@ def load_preset(name: str):
     import engine
 
     return engine.load_scene(preset_path(name))
+
+
+# ----------------------------------------------------------------------------- the demo
+def demo_scene_text() -> str:
+    """The JSON text of the embedded default scene (``studio/data/demo_scene.json``)."""
+    from importlib.resources import files
+
+    return (files("studio") / "data" / "demo_scene.json").read_text()
+
+
+def demo_scene():
+    """The embedded default scene (studio/data/demo_scene.json)."""
+    import engine
+
+    return engine.parse_scene(demo_scene_text())
+
+
+def load_preset_or_file(ref: str):
+    """A scene from a preset name (``studio.presets``), a JSON file path, or ``demo``."""
+    import engine
+
+    if ref in ("", "demo"):
+        return demo_scene()
+    path = Path(ref)
+    if path.suffix.lower() == ".json" or path.exists():
+        return engine.load_scene(path)
+    try:
+        return load_preset(ref)
+    except KeyError:
+        names = [p["name"] for p in list_presets()]
+        raise engine.SceneError.single("(preset)", ref,
+                                       f"no such file or preset; presets: {names}") from None
+
+
+def preset_names() -> list[str]:
+    """'demo' (the embedded scene) and the names of static_presets/."""
+    names = ["demo"]
+    try:
+        names += [p["name"] for p in list_presets()]
+    except Exception:
+        pass
+    return names

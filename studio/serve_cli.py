@@ -16,6 +16,8 @@ import os
 import signal
 import sys
 
+from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8000
 DEFAULT_DATA = "brush-studio-data"
@@ -69,7 +71,6 @@ def register(subparsers) -> None:
 
 
 def _cmd_serve(args) -> int:
-    from .cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 
     err = lambda m: print(m, file=sys.stderr)  # noqa: E731
     if not args.headless:

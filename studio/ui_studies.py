@@ -6,7 +6,7 @@ the rest (any option of the study's command, docs/studies.md). Start submits the
 the same :class:`studio.jobs.JobManager` as the HTTP API (``submit_study``: the study runs in
 a worker process, its files under ``DATA/runs/<id>/study/``). When it has finished, the tab
 shows its PNG plots as images, a convergence study's table (markdown) and log-log error
-against wall time (plotly, from ``studio.convergence.load_convergence``), and lists its files
+against wall time (plotly, from ``studio.studies.convergence.load_convergence``), and lists its files
 for download.
 
 The pure helpers (:func:`form_options`, :func:`convergence_markdown`,
@@ -92,7 +92,7 @@ def form_options(study: str, values: dict, extra: str = "") -> dict:
 
 
 def convergence_markdown(table) -> str:
-    """A convergence study's table (``studio.convergence.ConvergenceTable``) as markdown:
+    """A convergence study's table (``studio.studies.convergence.ConvergenceTable``) as markdown:
     one row per level, then the reference, the observed order and the cheapest levels."""
     def num(x, fmt):
         return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) \
@@ -319,7 +319,7 @@ class StudiesTab:
         self.md_table.visible = False
         if info.study == "convergence" and "convergence.json" in files:
             try:
-                from .convergence import load_convergence
+                from .studies.convergence import load_convergence
 
                 table = load_convergence(folder)
                 self.md_table.content = convergence_markdown(table)

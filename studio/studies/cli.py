@@ -9,15 +9,9 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-import importlib
+from . import refinement, rod, sensitivity, spin, wedge
 
-STUDY_MODULES: tuple[str, ...] = (
-    "studio.studies.wedge",
-    "studio.studies.refinement",
-    "studio.studies.sensitivity",
-    "studio.studies.rod",
-    "studio.studies.spin",
-)
+STUDY_MODULES = (wedge, refinement, sensitivity, rod, spin)
 
 
 def register(subparsers) -> None:
@@ -32,5 +26,5 @@ def register(subparsers) -> None:
         epilog="Exit codes: 0 ok, 1 some runs failed (listed with their parameters), "
                "2 bad input, 130 cancelled.")
     sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
-    for name in STUDY_MODULES:
-        importlib.import_module(name).add_parser(sub)
+    for module in STUDY_MODULES:
+        module.add_parser(sub)

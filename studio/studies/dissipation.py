@@ -37,8 +37,8 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_OK
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 DEFAULT_OUTPUT = "fit-dissipation"
 
 
@@ -429,16 +429,46 @@ def register(subparsers) -> None:
     p.set_defaults(func=_cmd_fit)
 
 
+@dataclass
+class Options:
+    """``brush-studio fit-dissipation``: the spin-down CSV to fit and how to read it."""
+
+    spindown: str                      # CSV with time [s] and angle columns
+    degrees: bool = False              # the angle column is in degrees
+    time_column: Optional[str] = None  # name or index
+    angle_column: Optional[str] = None
+    cutoff: Optional[float] = None     # low-pass cutoff, Hz (default 10 / duration)
+    min_speed: Optional[float] = None  # fit only samples turning faster, rad/s
+
+    @classmethod
+    def from_args(cls, args) -> "Options":
+        import dataclasses
+
+        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
+
+
+def run(options: Options, out_dir, *, progress=None, cancel=None):
+    """Fit ``options.spindown`` and write the fit into ``out_dir``: a ``StudyResult``
+    (exit code 0 ok, 2 a spin-down that cannot be fitted)."""
+    from .api import run_body
+
+    return run_body("fit-dissipation", _run_study, options, out_dir, progress, cancel)
+
+
 def _cmd_fit(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     try:
-        t, a = read_spindown_csv(args.spindown, args.time_column, args.angle_column)
-        if args.degrees:
+        t, a = read_spindown_csv(options.spindown, options.time_column, options.angle_column)
+        if options.degrees:
             a = np.radians(a)
-        fit = fit_dissipation(t, a, cutoff_hz=args.cutoff, min_speed=args.min_speed)
+        fit = fit_dissipation(t, a, cutoff_hz=options.cutoff, min_speed=options.min_speed)
     except SpindownError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    paths = write_outputs(fit, Path(args.output), source=str(args.spindown))
+    paths = write_outputs(fit, out, source=str(options.spindown))
     print(f"k1 = {fit.k1:.6g} ± {fit.k1_stderr:.2g} 1/s      (refined: {fit.refined_k1:.6g})")
     print(f"k2 = {fit.k2:.6g} ± {fit.k2_stderr:.2g} rad/s^2  (refined: {fit.refined_k2:.6g})")
     print(f"R^2 = {fit.r_squared:.4f} over {fit.n_used} of {fit.n_samples} samples; "

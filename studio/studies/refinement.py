@@ -18,13 +18,19 @@ import csv
 import math
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Optional
+
+from . import api
+from .api import StudyResult
 
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      run_many_from_args, write_json_atomic, write_outcomes)
-from .wedge import (EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK, TASK,
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .wedge import (TASK,
                     StudyInputError, add_protocol_options, apply_resolution,
-                    protocol_from_args, resolve_scenes, validate_scenes, wedge_angle_deg)
+                    ProtocolOptions, protocol_from_options, resolve_scenes, validate_scenes, wedge_angle_deg)
 
 DEFAULT_LEVELS = "4,6,8,12,17,24,32"
 DEFAULT_DEPTH_MM = 5.0
@@ -55,6 +61,17 @@ def parse_levels(text: str) -> list[int]:
     return levels
 
 
+@dataclass
+class Options(ProtocolOptions):
+    """``brush-studio study refinement``: one scene (preset name or file; default wedge_60)
+    at the numbers of nodes per bristle in ``levels`` (``"4,6,8"``). Default depth 5 mm,
+    loading only; ``nodes`` does not apply."""
+
+    preset: list = field(default_factory=list)
+    levels: str = DEFAULT_LEVELS
+    angles: Optional[str] = None  # not an option of this study: always the scene's angle
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "refinement", help="force at maximum penetration against nodes per bristle "
@@ -72,31 +89,41 @@ def add_parser(sub) -> None:
     p.set_defaults(func=cmd_refinement, angles=None)
 
 
+def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The refinement study of ``options`` into ``out_dir``."""
+    return api.run_body("refinement", _run_study, options, out_dir, progress, cancel)
+
+
 def cmd_refinement(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     import engine
 
-    msg = check_common_options(args)
+    msg = check_common_options(options)
     if msg:
         print(msg, file=sys.stderr)
         return EXIT_BAD_INPUT
-    if args.nodes is not None:
+    if options.nodes is not None:
         print("--nodes does not apply: use --levels", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        levels = parse_levels(args.levels)
-        if len(args.preset) > 1:
+        levels = parse_levels(options.levels)
+        if len(options.preset) > 1:
             raise StudyInputError("refinement takes one --preset")
-        (rid, scene, src), = resolve_scenes(args.preset, None)
-        if args.depth_mm is None:
-            args.depth_mm = DEFAULT_DEPTH_MM
-        args.no_unload = True
+        (rid, scene, src), = resolve_scenes(options.preset, None)
+        if options.depth_mm is None:
+            options.depth_mm = DEFAULT_DEPTH_MM
+        options.no_unload = True
         ceiling = overlap_ceiling(scene["brushes"][0])
         specs = []
         for n in levels:
             sc = apply_resolution(scene, n)
             specs.append(RunSpec(f"{rid}_n{n:04d}", sc, {
                 "n_nodes_per_bristle": n, "source": src, "angle_deg": wedge_angle_deg(sc),
-                "protocol": protocol_from_args(sc, args)}, TASK))
+                "protocol": protocol_from_options(sc, options)}, TASK))
     except engine.SceneError as exc:
         print("invalid scene: " + "; ".join(str(p) for p in exc.problems), file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -107,12 +134,11 @@ def cmd_refinement(args) -> int:
     if bad:
         print(bad, file=sys.stderr)
         return EXIT_BAD_INPUT
-    out = Path(args.output)
     print(f"refinement of {src}: nodes per bristle {levels}, loading to "
-          f"{args.depth_mm:g} mm; the seed's node-overlap ceiling is {ceiling} nodes")
+          f"{options.depth_mm:g} mm; the seed's node-overlap ceiling is {ceiling} nodes")
     t0 = time.perf_counter()
     try:
-        outcomes = run_many_from_args(specs, out, args, desc="refinement levels")
+        outcomes = run_many_from_args(specs, out, options, desc="refinement levels")
     except KeyboardInterrupt:
         print("cancelled: finished levels are kept; run the same command again to go on",
               file=sys.stderr)

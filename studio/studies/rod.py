@@ -35,16 +35,19 @@ import csv
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
 
+from . import api
+from .api import ExecutionOptions, StudyResult
+
 # seed table 4.1
 ROD_LENGTH = 0.4
 ROD_RADIUS = 1.42e-3 / 2
 STEEL = {"youngs_modulus": 200e9, "poisson_ratio": 0.3, "density": 7640.0}
-BETA_L = (1.8751, 4.6941, 7.8548)     # cantilever eigenvalues beta_n L
 ROOT_IMPULSE_AT = 0.0458              # m from the root (seed 4.1.3)
 
 CASES = ("weight_release", "tip_impulse", "root_impulse")
@@ -67,11 +70,10 @@ def cantilever_frequencies(length: float = ROD_LENGTH, radius: float = ROD_RADIU
                            youngs_modulus: float = STEEL["youngs_modulus"],
                            density: float = STEEL["density"], n_modes: int = 3) -> list[float]:
     """Euler-Bernoulli bending frequencies (Hz) of a uniform clamped-free rod:
-    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))``."""
-    area = math.pi * radius ** 2
-    second_moment = math.pi * radius ** 4 / 4
-    root = math.sqrt(youngs_modulus * second_moment / (density * area * length ** 4))
-    return [bl ** 2 / (2 * math.pi) * root for bl in BETA_L[:n_modes]]
+    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`studio.studies.reference`)."""
+    from .reference import cantilever_frequencies as frequencies
+
+    return frequencies(length, radius, youngs_modulus, density, n_modes)
 
 
 # ----------------------------------------------------------------------------- spectra
@@ -288,7 +290,8 @@ def _run(scene, h5_path: Path):
     import engine
 
     system = engine.build(scene)
-    result = engine.run(system, output=h5_path)
+    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
+    api.check_cancel()  # a cancel of the study running this in-process
     return system, result
 
 
@@ -521,6 +524,23 @@ def _floats(text: str) -> list[float]:
     return vals
 
 
+@dataclass
+class Options(ExecutionOptions):
+    """``brush-studio study rod`` (``None``: the presets' value)."""
+
+    cases: str = ",".join(CASES + ("response",))  # comma-separated subset
+    n_nodes: Optional[int] = None                  # nodes per rod, excitation cases
+    free_duration: Optional[float] = None          # free vibration after the excitation, s
+    record_interval: Optional[float] = None        # s
+    frequencies: Optional[str] = None              # drive frequencies "F1,F2,...", Hz
+    response_nodes: int = 16
+    response_force: float = DEFAULT_RESPONSE_FORCE  # tip force amplitude, N
+    friction_angle: float = DEFAULT_FRICTION_ANGLE_DEG  # rod-plate, degrees
+    settle_periods: float = 6.0
+    measure_periods: float = 6.0
+    min_time: float = 0.5                          # least settling and measuring time, s
+
+
 def add_parser(study_subparsers) -> None:
     from .runner import add_common_options
 
@@ -560,48 +580,57 @@ def add_parser(study_subparsers) -> None:
     p.set_defaults(func=_cmd_rod)
 
 
+def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The rod study of ``options`` into ``out_dir``."""
+    return api.run_body("rod", _run_study, options, out_dir, progress, cancel)
+
+
 def _cmd_rod(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     from .runner import check_common_options, failures_text, first_problem, run_study
 
-    problem = check_common_options(args)
-    cases = [c.strip() for c in args.cases.split(",") if c.strip()]
+    problem = check_common_options(options)
+    cases = [c.strip() for c in options.cases.split(",") if c.strip()]
     bad = [c for c in cases if c not in CASES + ("response",)]
     if bad:
         problem = f"--cases: unknown {bad}; choose from {CASES + ('response',)}"
     try:
-        freqs = (_floats(args.frequencies) if args.frequencies
+        freqs = (_floats(options.frequencies) if options.frequencies
                  else list(DEFAULT_RESPONSE_FREQUENCIES))
     except ValueError as exc:
         problem = f"--frequencies: {exc}"
         freqs = []
-    checks = [(args.n_nodes is None or args.n_nodes >= 3, "--n-nodes must be >= 3"),
-              (args.response_nodes >= 3, "--response-nodes must be >= 3"),
-              (args.free_duration is None or args.free_duration > 0, "--free-duration must be > 0"),
-              (args.record_interval is None or args.record_interval > 0,
+    checks = [(options.n_nodes is None or options.n_nodes >= 3, "--n-nodes must be >= 3"),
+              (options.response_nodes >= 3, "--response-nodes must be >= 3"),
+              (options.free_duration is None or options.free_duration > 0, "--free-duration must be > 0"),
+              (options.record_interval is None or options.record_interval > 0,
                "--record-interval must be > 0"),
               (all(f > 0 for f in freqs), "--frequencies must be > 0"),
-              (args.response_force > 0, "--response-force must be > 0"),
-              (0 <= args.friction_angle < 90, "--friction-angle must be in [0, 90) degrees"),
-              (args.settle_periods > 0 and args.measure_periods >= 1,
+              (options.response_force > 0, "--response-force must be > 0"),
+              (0 <= options.friction_angle < 90, "--friction-angle must be in [0, 90) degrees"),
+              (options.settle_periods > 0 and options.measure_periods >= 1,
                "--settle-periods must be > 0 and --measure-periods >= 1"),
-              (args.min_time >= 0, "--min-time must be >= 0")]
+              (options.min_time >= 0, "--min-time must be >= 0")]
     problem = first_problem(problem, checks)
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(
-        lambda: build_specs([c for c in cases if c in CASES], n_nodes=args.n_nodes,
-                            free_duration=args.free_duration,
-                            record_interval=args.record_interval,
+        lambda: build_specs([c for c in cases if c in CASES], n_nodes=options.n_nodes,
+                            free_duration=options.free_duration,
+                            record_interval=options.record_interval,
                             response_frequencies=freqs if "response" in cases else [],
-                            response_nodes=args.response_nodes,
-                            response_force=args.response_force,
-                            friction_angle=math.radians(args.friction_angle),
-                            settle_periods=args.settle_periods,
-                            measure_periods=args.measure_periods, min_time=args.min_time),
-        out, args, desc="rod runs")
+                            response_nodes=options.response_nodes,
+                            response_force=options.response_force,
+                            friction_angle=math.radians(options.friction_angle),
+                            settle_periods=options.settle_periods,
+                            measure_periods=options.measure_periods, min_time=options.min_time),
+        out, options, desc="rod runs")
     if code is not None:
         return code
     analytic = cantilever_frequencies()

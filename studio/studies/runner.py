@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from ..jsonable import jsonable  # noqa: F401  (studies import it from here)
+from . import api
 
 DEFAULT_TASK = "studio.studies.runner:plain_run"
 DONE_STATUSES = ("completed", "stopped")
@@ -258,9 +259,12 @@ _PROGRESS: Optional[_ProgressFile] = None
 
 def report_progress(fraction: float) -> None:
     """Called by a task (on its worker) to say how far its run is, 0..1; shown in the
-    study's progress bar. Does nothing outside a study run; at most two writes a second."""
+    study's progress bar. Does nothing outside a study run; at most two writes a second.
+    Also a cancel check point: raises :class:`api.StudyCancelled` once the study running
+    in this process is cancelled."""
     if _PROGRESS is not None:
         _PROGRESS.write(fraction)
+    api.check_cancel()
 
 
 def _read_progress(out_dir: Path, run_id: str) -> float:
@@ -336,8 +340,9 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
     uses an existing scheduler and its workers. Runs already complete in ``out_dir`` (same
     hash) are skipped (``skipped=True``). ``progress`` shows a tqdm bar over runs.
 
-    Ctrl-C (KeyboardInterrupt) cancels the queued runs and re-raises; runs finished before
-    it keep their files, so the next call picks up from there."""
+    Ctrl-C (KeyboardInterrupt), or the cancel of the study running this (``api.session``),
+    cancels the queued runs and raises; runs finished before it keep their files, so the next
+    call picks up from there. That study's progress callback follows the bar."""
     from tqdm import tqdm
 
     out_dir = Path(out_dir)
@@ -369,6 +374,8 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
     n_before = len(specs) - len(todo)
     bar = tqdm(total=len(specs), initial=n_before, desc=desc, unit="run",
                disable=not progress, dynamic_ncols=True, file=sys.stderr)
+    bar.study_desc = desc  # a disabled bar keeps no desc: the progress callback's words
+    _refresh(bar, force=True)
     tally = {"failed": 0, "finished": 0}
 
     def finish(i: int, d: dict, result) -> None:
@@ -389,7 +396,7 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
         tally["finished"] += 1
         bar.set_postfix_str(f"{tally['failed']} failed", refresh=False)
         bar.n = n_before + tally["finished"]
-        bar.refresh()
+        _refresh(bar, force=True)
 
     try:
         # one worker, or a single run to do (a cluster would give it one worker anyway):
@@ -404,6 +411,15 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
     return list(outcomes)  # type: ignore[arg-type]  # every run has its outcome here
 
 
+def _refresh(bar, force: bool = False) -> None:
+    """Redraw the terminal bar (when shown) and tell the study's progress callback."""
+    bar.refresh()
+    total = bar.total or 0
+    desc = getattr(bar, "study_desc", None) or "runs"
+    api.current().report(bar.n / total if total else 0.0,
+                         f"{desc}: {bar.n:.4g}/{total:g} run", force=force)
+
+
 def _run_here(todo: list, out_dir: Path, bar, n_before: int, tally: dict, finish) -> None:
     """The one-worker path: each run through :func:`execute_spec` in this process, in order.
     Ctrl-C cancels the run under way (its outcome says so) and the ones after it."""
@@ -413,11 +429,12 @@ def _run_here(todo: list, out_dir: Path, bar, n_before: int, tally: dict, finish
         n = round(n_before + tally["finished"] + fraction, 2)
         if n != bar.n:
             bar.n = n
-            bar.refresh()
+            _refresh(bar)
 
     threads = numba.get_num_threads()  # execute_spec caps this thread's; give it back
     try:
         for i, d in todo:
+            api.check_cancel()
             try:
                 result = execute_spec(d, str(out_dir.resolve()), on_progress=moved,
                                       reraise_interrupt=True)
@@ -475,7 +492,8 @@ def _completed(futures: dict, bar, out_dir: Path, n_before: int):
         n = round(n_before + n_done + partial, 2)
         if n != bar.n:
             bar.n = n
-            bar.refresh()
+            _refresh(bar)
+        api.check_cancel()  # the caller cancels the queued tasks
 
 
 def failures_text(outcomes: Sequence[RunOutcome]) -> str:

@@ -28,14 +28,19 @@ import csv
 import math
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
+from . import api
+from .api import StudyResult
+
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      run_many_from_args, write_json_atomic, write_outcomes)
-from .wedge import (EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK, TASK,
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .wedge import (TASK,
                     StudyInputError, add_protocol_options, apply_resolution,
-                    protocol_from_args, resolve_scenes, validate_scenes, wedge_angle_deg)
+                    ProtocolOptions, protocol_from_options, resolve_scenes, validate_scenes, wedge_angle_deg)
 
 # name: (label, unit shown, low, high, nominal or None = the scene's value); SI inside
 PARAMETERS = {
@@ -109,13 +114,31 @@ def nominal_values(scene: dict, brush: str = "brush") -> dict:
     return out
 
 
-def _common(args, default_depth_mm: float, default_nodes: Optional[int]):
-    """Scenes (with the protocol) for the sensitivity and Monte Carlo commands."""
-    if args.depth_mm is None:
-        args.depth_mm = default_depth_mm
-    if args.nodes is None:
-        args.nodes = default_nodes
-    return resolve_scenes(args.preset, args.angles)
+@dataclass
+class SensitivityOptions(ProtocolOptions):
+    """``brush-studio study sensitivity``: the scenes (preset names or files; default
+    wedge_60) and wedge angles (``"30,45"``); default depth 10 mm."""
+
+    preset: list = field(default_factory=list)
+    angles: Optional[str] = None
+
+
+@dataclass
+class MonteCarloOptions(SensitivityOptions):
+    """``brush-studio study montecarlo``: ``samples`` parameter sets per scene drawn with
+    ``seed``; default: the scene's resolution and full depth."""
+
+    samples: int = 100
+    seed: int = 1
+
+
+def _common(options, default_depth_mm: float, default_nodes: Optional[int]):
+    """Scenes (with the protocol) for the sensitivity and Monte Carlo studies."""
+    if options.depth_mm is None:
+        options.depth_mm = default_depth_mm
+    if options.nodes is None:
+        options.nodes = default_nodes
+    return resolve_scenes(options.preset, options.angles)
 
 
 def _add_scene_options(p) -> None:
@@ -156,33 +179,43 @@ def add_parser(sub) -> None:
     m.set_defaults(func=cmd_montecarlo)
 
 
-def _prepare(args, default_depth_mm, default_nodes):
+def _prepare(options, default_depth_mm, default_nodes):
     import engine
 
-    msg = check_common_options(args)
+    msg = check_common_options(options)
     if msg:
         raise StudyInputError(msg)
     try:
-        return _common(args, default_depth_mm, default_nodes)
+        return _common(options, default_depth_mm, default_nodes)
     except engine.SceneError as exc:
         raise StudyInputError("invalid scene: " + "; ".join(str(p) for p in exc.problems)
                               ) from None
 
 
-def _run(specs, args, desc):
+def _run(specs, options, out: Path, desc):
     bad = validate_scenes([s.scene for s in specs])
     if bad:
         raise StudyInputError(bad)
-    return run_many_from_args(specs, Path(args.output), args, desc=desc)
+    return run_many_from_args(specs, out, options, desc=desc)
 
 
 # ----------------------------------------------------------------------------- sensitivity
+def run_sensitivity(options: SensitivityOptions, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The sensitivity study of ``options`` into ``out_dir``."""
+    return api.run_body("sensitivity", _run_sensitivity, options, out_dir, progress, cancel)
+
+
 def cmd_sensitivity(args) -> int:
+    return run_sensitivity(SensitivityOptions.from_args(args), args.output).exit_code
+
+
+def _run_sensitivity(options: SensitivityOptions, out: Path) -> int:
     try:
-        scenes = _prepare(args, 10.0, None)
+        scenes = _prepare(options, 10.0, None)
         specs = []
         for rid, scene, src in scenes:
-            scene = apply_resolution(scene, args.nodes)
+            scene = apply_resolution(scene, options.nodes)
             nom = nominal_values(scene)
             cases = [("nominal", None, None)]
             for name, (_, _, lo, hi, _) in PARAMETERS.items():
@@ -195,11 +228,11 @@ def cmd_sensitivity(args) -> int:
                 specs.append(RunSpec(f"{rid}.{case}", sc, {
                     "scene": rid, "case": case, "parameter": name, "value": value,
                     "values": values, "angle_deg": wedge_angle_deg(sc), "source": src,
-                    "protocol": protocol_from_args(sc, args)}, TASK))
+                    "protocol": protocol_from_options(sc, options)}, TASK))
         print(f"sensitivity: {len(scenes)} scene(s) x {len(specs) // len(scenes)} runs, to "
-              f"{args.depth_mm:g} mm")
+              f"{options.depth_mm:g} mm")
         t0 = time.perf_counter()
-        outcomes = _run(specs, args, "sensitivity runs")
+        outcomes = _run(specs, options, out, "sensitivity runs")
     except StudyInputError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -208,7 +241,7 @@ def cmd_sensitivity(args) -> int:
               file=sys.stderr)
         return EXIT_CANCELLED
     wall = time.perf_counter() - t0
-    return write_sensitivity_outputs(Path(args.output), specs, outcomes, wall)
+    return write_sensitivity_outputs(out, specs, outcomes, wall)
 
 
 def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
@@ -307,32 +340,42 @@ def mean_std_table(summaries: list[dict]) -> list[dict]:
     return rows
 
 
+def run_montecarlo(options: MonteCarloOptions, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The montecarlo study of ``options`` into ``out_dir``."""
+    return api.run_body("montecarlo", _run_montecarlo, options, out_dir, progress, cancel)
+
+
 def cmd_montecarlo(args) -> int:
-    if args.samples < 2:
-        print(f"--samples = {args.samples}: must be >= 2 (a standard deviation)",
+    return run_montecarlo(MonteCarloOptions.from_args(args), args.output).exit_code
+
+
+def _run_montecarlo(options: MonteCarloOptions, out: Path) -> int:
+    if options.samples < 2:
+        print(f"--samples = {options.samples}: must be >= 2 (a standard deviation)",
               file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        scenes = _prepare(args, None, None)
-        samples = draw_samples(args.samples, args.seed)
+        scenes = _prepare(options, None, None)
+        samples = draw_samples(options.samples, options.seed)
         specs = []
         for rid, scene, src in scenes:
-            scene = apply_resolution(scene, args.nodes)
-            proto = protocol_from_args(scene, args)
+            scene = apply_resolution(scene, options.nodes)
+            proto = protocol_from_options(scene, options)
             for i, values in enumerate(samples):
                 sc = apply_parameters(scene, values)
                 specs.append(RunSpec(f"{rid}.mc{i:04d}", sc, {
-                    "scene": rid, "sample": i, "seed": args.seed, "values": values,
+                    "scene": rid, "sample": i, "seed": options.seed, "values": values,
                     "angle_deg": wedge_angle_deg(sc), "source": src, "protocol": proto},
                     TASK))
         p0 = specs[0].params["protocol"]
         nodes = sorted({b["n_nodes"] for s in specs for b in s.scene["brushes"]})
-        print(f"Monte Carlo: {len(scenes)} scene(s) x {args.samples} samples (seed "
-              f"{args.seed}), to {p0['n_steps'] * p0['step'] * 1e3:g} mm"
+        print(f"Monte Carlo: {len(scenes)} scene(s) x {options.samples} samples (seed "
+              f"{options.seed}), to {p0['n_steps'] * p0['step'] * 1e3:g} mm"
               f"{' and back' if p0['unload'] else ''}, {'/'.join(map(str, nodes))} nodes "
               f"per bristle, {p0['method'].replace('_', '-')} method")
         t0 = time.perf_counter()
-        outcomes = _run(specs, args, "Monte Carlo samples")
+        outcomes = _run(specs, options, out, "Monte Carlo samples")
     except StudyInputError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -341,7 +384,7 @@ def cmd_montecarlo(args) -> int:
               file=sys.stderr)
         return EXIT_CANCELLED
     wall = time.perf_counter() - t0
-    return write_montecarlo_outputs(Path(args.output), specs, outcomes, wall)
+    return write_montecarlo_outputs(out, specs, outcomes, wall)
 
 
 def write_montecarlo_outputs(out: Path, specs, outcomes, wall) -> int:

@@ -38,10 +38,14 @@ import csv
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+
+from . import api
+from .api import ExecutionOptions, StudyResult
 
 CUBES_MM = (20, 40, 60)
 CONFIGS = {  # config -> (brush orientation, level, horizontal position)
@@ -300,7 +304,9 @@ def spin_task(scene, h5_path: Path, params: dict) -> dict:
     axis = np.asarray(cube.motion.axis, float)
     monitor = RestMonitor(h5_path, axis, float(np.dot(cube.angular_velocity, axis)
                                                / np.linalg.norm(axis)))
-    result = engine.run(system, output=h5_path, cancel=monitor)
+    result = engine.run(system, output=h5_path,
+                        cancel=lambda: monitor() or api.cancel_requested())
+    api.check_cancel()  # a cancel of the study running this in-process
     data = read_spin(h5_path)
     status, stopped_by = result.status, None
     if result.status == "stopped":
@@ -503,6 +509,23 @@ def _ints(text: str, what: str) -> list[int]:
         raise ValueError(f"{what} {text!r}: expected comma-separated integers") from None
 
 
+@dataclass
+class Options(ExecutionOptions):
+    """``brush-studio study spin`` (``None``: the presets' value)."""
+
+    cubes: str = "20,40,60"          # cube edges, mm
+    configs: str = "1,2,3,4,5,6"     # brush configurations
+    n_nodes: Optional[int] = None    # nodes per bristle
+    omega0: Optional[float] = None   # initial spin, rad/s
+    duration: Optional[float] = None  # simulated time per run at most, s
+    grid: Optional[str] = None       # "LONG,SHORT" bristles
+    random_seeds: int = 5            # runs with random bristle tips
+    random_cube: int = 60
+    random_config: int = 5
+    tip_variance: float = SEED_TIP_VARIANCE  # m^2
+    record_interval: Optional[float] = None
+
+
 def add_parser(study_subparsers) -> None:
     from .runner import add_common_options
 
@@ -538,14 +561,24 @@ def add_parser(study_subparsers) -> None:
     p.set_defaults(func=_cmd_spin)
 
 
+def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The spin study of ``options`` into ``out_dir``."""
+    return api.run_body("spin", _run_study, options, out_dir, progress, cancel)
+
+
 def _cmd_spin(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     from .runner import check_common_options, failures_text, first_problem, run_study
 
-    problem = check_common_options(args)
+    problem = check_common_options(options)
     try:
-        cubes = _ints(args.cubes, "--cubes")
-        configs = _ints(args.configs, "--configs")
-        grid = tuple(_ints(args.grid, "--grid")) if args.grid else None
+        cubes = _ints(options.cubes, "--cubes")
+        configs = _ints(options.configs, "--configs")
+        grid = tuple(_ints(options.grid, "--grid")) if options.grid else None
     except ValueError as exc:
         problem = problem or str(exc)
         cubes, configs, grid = [], [], None
@@ -553,27 +586,26 @@ def _cmd_spin(args) -> int:
         (all(c in CUBES_MM for c in cubes) and cubes, f"--cubes: each one of {CUBES_MM}"),
         (all(c in CONFIGS for c in configs) and configs, "--configs: each one of 1-6"),
         (grid is None or (len(grid) == 2 and min(grid) >= 1), "--grid: two integers >= 1"),
-        (args.n_nodes is None or args.n_nodes >= 2, "--n-nodes must be >= 2"),
-        (args.duration is None or args.duration > 0, "--duration must be > 0"),
-        (args.random_seeds >= 0, "--random-seeds must be >= 0"),
-        (args.random_cube in CUBES_MM, f"--random-cube: one of {CUBES_MM}"),
-        (args.random_config in CONFIGS, "--random-config: one of 1-6"),
-        (args.tip_variance > 0, "--tip-variance must be > 0"),
-        (args.record_interval is None or args.record_interval > 0,
+        (options.n_nodes is None or options.n_nodes >= 2, "--n-nodes must be >= 2"),
+        (options.duration is None or options.duration > 0, "--duration must be > 0"),
+        (options.random_seeds >= 0, "--random-seeds must be >= 0"),
+        (options.random_cube in CUBES_MM, f"--random-cube: one of {CUBES_MM}"),
+        (options.random_config in CONFIGS, "--random-config: one of 1-6"),
+        (options.tip_variance > 0, "--tip-variance must be > 0"),
+        (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
     problem = first_problem(problem, checks)
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(
-        lambda: build_specs(cubes, configs, n_nodes=args.n_nodes, omega0=args.omega0,
-                            duration=args.duration, grid=grid,
-                            random_seeds=args.random_seeds, random_cube=args.random_cube,
-                            random_config=args.random_config, tip_variance=args.tip_variance,
-                            record_interval=args.record_interval),
-        out, args, desc="spin runs")
+        lambda: build_specs(cubes, configs, n_nodes=options.n_nodes, omega0=options.omega0,
+                            duration=options.duration, grid=grid,
+                            random_seeds=options.random_seeds, random_cube=options.random_cube,
+                            random_config=options.random_config, tip_variance=options.tip_variance,
+                            record_interval=options.record_interval),
+        out, options, desc="spin runs")
     if code is not None:
         return code
     summary = write_outputs(out, outcomes)

@@ -41,14 +41,17 @@ import os
 import shutil
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
+from . import api
+from .api import ExecutionOptions, StudyResult
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      jsonable, report_progress, run_many_from_args, write_json_atomic,
                      write_outcomes)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_CANCELLED = 0, 1, 2, 130
 TASK = "studio.studies.wedge:wedge_cycle"
 PROTOCOL_DEFAULTS = {
     "method": "quasi_static",  # or "dynamic": the seed's hold-until-steady windows
@@ -245,6 +248,7 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
     status, error = "completed", None
 
     def advance(duration: float):
+        api.check_cancel()  # a cancel of the study running this in-process stops here
         path = scratch / f"chunk{costs['chunks']:05d}.h5"
         state["last_chunk"] = path
         res = engine.run(system, until=system.time + duration, output=path)
@@ -585,6 +589,34 @@ def apply_resolution(scene: dict, n_nodes: Optional[int]) -> dict:
     return scene
 
 
+# ----------------------------------------------------------------------------- options
+@dataclass
+class ProtocolOptions(ExecutionOptions):
+    """The hold-until-steady protocol of the wedge-based studies (``None``: the scene's
+    wedge profile, or :data:`PROTOCOL_DEFAULTS`; the ``--depth-mm`` ... options)."""
+
+    depth_mm: Optional[float] = None            # full depth, mm
+    nodes: Optional[int] = None                 # nodes per bristle
+    max_acceleration: Optional[float] = None    # a_m of each step, m/s^2
+    window: Optional[float] = None              # hold window, s
+    threshold: Optional[float] = None           # steady when the force's std is below, N
+    rel_threshold: Optional[float] = None       # ... or this fraction of the force
+    max_hold: Optional[float] = None            # longest hold after a step, s
+    no_unload: bool = False                     # loading only
+    method: Optional[str] = None                # "quasi-static" (default) | "dynamic"
+    qs_max_acceleration: Optional[float] = None
+    qs_increments: Optional[int] = None
+
+
+@dataclass
+class Options(ProtocolOptions):
+    """``brush-studio study wedge``: the scenes (preset names or files; default wedge_60)
+    and wedge angles (``"30,45,60"``)."""
+
+    preset: list = field(default_factory=list)
+    angles: Optional[str] = None
+
+
 def add_protocol_options(p) -> None:
     """Options of the hold-until-steady protocol (shared by the wedge-based studies)."""
     g = p.add_argument_group("protocol (defaults: the scene's wedge profile; docs/studies.md)")
@@ -618,16 +650,18 @@ def add_protocol_options(p) -> None:
                         f"committed (default {PROTOCOL_DEFAULTS['qs_increments']})")
 
 
-def protocol_from_args(scene: dict, args) -> dict:
-    if args.nodes is not None and not 2 <= args.nodes <= 4096:
-        raise StudyInputError(f"--nodes = {args.nodes}: must be in 2 .. 4096")
-    return make_protocol(scene, depth=None if args.depth_mm is None else args.depth_mm * 1e-3,
-                         max_acceleration=args.max_acceleration, unload=not args.no_unload,
-                         window=args.window, threshold=args.threshold,
-                         rel_threshold=args.rel_threshold, max_hold=args.max_hold,
-                         method=None if args.method is None else args.method.replace("-", "_"),
-                         qs_max_acceleration=args.qs_max_acceleration,
-                         qs_increments=args.qs_increments)
+def protocol_from_options(scene: dict, options: "ProtocolOptions") -> dict:
+    """The protocol of ``scene`` for the options of a wedge-based study."""
+    o = options
+    if o.nodes is not None and not 2 <= o.nodes <= 4096:
+        raise StudyInputError(f"--nodes = {o.nodes}: must be in 2 .. 4096")
+    return make_protocol(scene, depth=None if o.depth_mm is None else o.depth_mm * 1e-3,
+                         max_acceleration=o.max_acceleration, unload=not o.no_unload,
+                         window=o.window, threshold=o.threshold,
+                         rel_threshold=o.rel_threshold, max_hold=o.max_hold,
+                         method=None if o.method is None else o.method.replace("-", "_"),
+                         qs_max_acceleration=o.qs_max_acceleration,
+                         qs_increments=o.qs_increments)
 
 
 def _err(msg: str) -> None:
@@ -665,19 +699,29 @@ def add_parser(sub) -> None:
     p.set_defaults(func=cmd_wedge)
 
 
+def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The wedge study of ``options`` into ``out_dir`` (see the module docstring)."""
+    return api.run_body("wedge", _run_study, options, out_dir, progress, cancel)
+
+
 def cmd_wedge(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
     import engine
 
-    msg = check_common_options(args)
+    msg = check_common_options(options)
     if msg:
         _err(msg)
         return EXIT_BAD_INPUT
     try:
-        scenes = resolve_scenes(args.preset, args.angles)
+        scenes = resolve_scenes(options.preset, options.angles)
         specs = []
         for rid, scene, src in scenes:
-            scene = apply_resolution(scene, args.nodes)
-            proto = protocol_from_args(scene, args)
+            scene = apply_resolution(scene, options.nodes)
+            proto = protocol_from_options(scene, options)
             angle = wedge_angle_deg(scene)
             specs.append(RunSpec(rid, scene, {"angle_deg": angle, "source": src,
                                               "n_nodes": [b["n_nodes"] for b in
@@ -693,7 +737,6 @@ def cmd_wedge(args) -> int:
     if bad:
         _err(bad)
         return EXIT_BAD_INPUT
-    out = Path(args.output)
     for s in specs:
         pr = s.params["protocol"]
         print(f"{s.run_id}: {s.params['source']}; wedge {s.params['angle_deg']:g} deg, "
@@ -702,7 +745,7 @@ def cmd_wedge(args) -> int:
               f"{' and back' if pr['unload'] else ''}, nodes/bristle {s.params['n_nodes']}")
     t0 = time.perf_counter()
     try:
-        outcomes = run_many_from_args(specs, out, args, desc="wedge runs")
+        outcomes = run_many_from_args(specs, out, options, desc="wedge runs")
     except KeyboardInterrupt:
         _err("cancelled: finished runs are kept; run the same command again to go on")
         return EXIT_CANCELLED

@@ -1,4 +1,4 @@
-"""``brush-studio convergence`` (studio/convergence.py): observed order and Richardson
+"""``brush-studio convergence`` (studio/studies/convergence/): observed order and Richardson
 extrapolation on synthetic sequences of known order, the references against the independent
 ones of tests/engine/analytic.py, the quantity extractors, and a tiny real ladder through the
 command (Dask layer) writing CSV, HDF5, JSON and PNG."""
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio import convergence as cv
+from studio.studies import convergence as cv
 from studio.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "engine"))

@@ -56,7 +56,7 @@ def test_options_the_server_sets_are_refused_from_the_form_too():
 
 
 def _table():
-    from studio.convergence import ConvergenceTable
+    from studio.studies.convergence import ConvergenceTable
 
     rows = [{"level": 0, "n_nodes": 3, "dt": 1e-5, "dt_factor": 1.0, "quantity": 0.9,
              "error": -0.1, "wall_s": 1.0, "status": "completed"},

@@ -1,0 +1,499 @@
+"""The job manager: a bounded pool of worker processes, a FIFO queue and the job table.
+
+One monitor thread hands queued jobs to idle workers (oldest first), receives their progress
+and results through a pipe per worker and writes them to the :class:`~.store.JobStore`;
+enforces cancels (a worker that does not stop within the grace period is terminated);
+notices dead workers through their process sentinels (their job fails with the reason) and
+starts new ones.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import threading
+import time
+import traceback
+import uuid
+from pathlib import Path
+from typing import Optional, Union
+
+from ..studies.api import study_files
+from ..studies.registry import make_options, options_to_dict
+from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
+from .store import FINAL_STATUSES, JobInfo, JobStore, _finite, jsonable
+from .worker import WorkerHandle, cpu_count, describe_exit
+
+
+class JobManager:
+    """Bounded pool of worker processes, FIFO queue, state in ``data_dir/jobs.sqlite``.
+
+    ``workers``: pool size (default one per core). ``cancel_grace_s``: how long a worker may
+    take to honour a cancel before it is terminated. ``max_triangles``: the largest uploaded
+    mesh accepted by :meth:`add_mesh`.
+    """
+
+    def __init__(self, data_dir: Union[str, Path], workers: Optional[int] = None, *,
+                 cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES,
+                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0):
+        import multiprocessing as mp
+
+        self.data_dir = Path(data_dir).resolve()
+        self.runs_dir = self.data_dir / "runs"
+        self.meshes_dir = self.data_dir / "meshes"
+        for d in (self.data_dir, self.runs_dir, self.meshes_dir):
+            d.mkdir(parents=True, exist_ok=True)
+        cores = cpu_count()
+        if workers is None:
+            workers = cores
+        if not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
+        self.n_workers = workers
+        self.threads_per_worker = max(1, cores // workers)
+        self.cancel_grace_s = float(cancel_grace_s)
+        self.max_triangles = int(max_triangles)
+        if scheduler is not None and "://" not in str(scheduler):
+            raise ValueError(f"scheduler = {scheduler!r}: expected an address like "
+                             f"tcp://HOST:PORT")
+        self.scheduler = scheduler  # study jobs' Dask scheduler (None: one local worker)
+        self.study_cancel_grace_s = float(study_cancel_grace_s)
+
+        self._lock_file = self._take_folder_lock()
+        self._store = JobStore(self.data_dir, self.runs_dir)
+        # the database connection and the worker table share one lock
+        self._lock, self._changed, self._db = (self._store.lock, self._store.changed,
+                                               self._store.db)
+        self._meshes = MeshStore(self.meshes_dir, self._store, self.max_triangles)
+
+        self._ctx = mp.get_context("spawn")
+        self._workers: list[WorkerHandle] = []
+        self._closing = False
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_w, False)
+        self._respawn_after = 0.0
+        self._start_failures = 0
+        self._monitor = threading.Thread(target=self._monitor_loop, name="job-monitor",
+                                         daemon=True)
+        self._monitor.start()
+
+    # ------------------------------------------------------------------ public API
+    def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
+               check_build: bool = True) -> str:
+        """Queue a scene (an ``engine.Scene``, a dict or JSON text); returns the job id.
+
+        Raises ``engine.SceneError`` naming every bad field. Mesh shapes may name an uploaded
+        mesh as ``"mesh:<id>"``; with ``allow_files=False`` (the HTTP server) they must, and
+        no other file path is accepted. ``check_build`` also builds the scene here, so that
+        what only the build can see (an unreadable mesh, missing mass properties) is reported
+        now rather than as a failed job.
+        """
+        import engine
+
+        scene = self._meshes.resolve_scene(scene, allow_files=allow_files)
+        if check_build:
+            engine.build(scene)
+        if name is None or not str(name).strip():
+            name = scene.name
+        name = str(name).strip()[:200]
+        scene_json = scene.to_json()
+        job_id = uuid.uuid4().hex[:12]
+        run_dir = self.runs_dir / job_id
+        run_dir.mkdir(parents=True, exist_ok=False)
+        (run_dir / "scene.json").write_text(scene_json + "\n")
+        with self._lock:
+            self._db.execute(
+                "INSERT INTO jobs (id, name, status, created, until, scene) "
+                "VALUES (?, ?, 'queued', ?, ?, ?)",
+                (job_id, name, time.time(), _finite(scene.run.duration), scene_json))
+            self._changed.notify_all()
+        self._wake()
+        return job_id
+
+    def submit_study(self, study: str, options: Optional[dict] = None,
+                     name: Optional[str] = None) -> str:
+        """Queue a study (``wedge``, ``spin``, ``refinement``, ``sensitivity``,
+        ``montecarlo``, ``rod``, ``convergence``) with ``options`` (its command-line options
+        as a dict, see :func:`study_argv`); returns the job id. Raises
+        :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
+        files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
+        Dask worker, or on the manager's ``scheduler``."""
+        typed, argv = make_options(study, options, scheduler=self.scheduler)
+        resolved = options_to_dict(typed)
+        if name is None or not str(name).strip():
+            name = f"{study} study"
+        name = str(name).strip()[:200]
+        job_id = uuid.uuid4().hex[:12]
+        run_dir = self.runs_dir / job_id
+        (run_dir / "study").mkdir(parents=True, exist_ok=False)
+        spec = {"study": study, "options": jsonable(options or {}), "argv": argv,
+                "resolved": resolved}
+        (run_dir / "study_job.json").write_text(json.dumps(spec, indent=1) + "\n")
+        with self._lock:
+            self._db.execute(
+                "INSERT INTO jobs (id, name, status, created, scene, kind, study, options, "
+                "argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?, ?)",
+                (job_id, name, time.time(), study, json.dumps(spec["options"]),
+                 json.dumps(argv), json.dumps(resolved)))
+            self._changed.notify_all()
+        self._wake()
+        return job_id
+
+    def study_dir(self, job_id: str) -> Path:
+        """A study job's output folder (KeyError if unknown or not a study)."""
+        info = self.get(job_id)
+        if info.kind != "study":
+            raise KeyError(job_id)
+        return self.runs_dir / job_id / "study"
+
+    def study_files(self, job_id: str) -> list[str]:
+        """A study job's output files so far: paths relative to its folder, sorted."""
+        return study_files(self.study_dir(job_id))
+
+    def study_file(self, job_id: str, name: str) -> Path:
+        """One output file of a study job, by a name from :meth:`study_files` only (no
+        other path is ever opened); KeyError otherwise."""
+        if name not in self.study_files(job_id):
+            raise KeyError(name)
+        return self.study_dir(job_id) / name
+
+    def get(self, job_id: str) -> JobInfo:
+        """The job's state; KeyError if there is no such job."""
+        return self._store.get(job_id)
+
+    def list(self, status: Optional[str] = None, limit: Optional[int] = None,
+             kind: Optional[str] = None) -> list[JobInfo]:
+        """All jobs (or those with ``status``, of ``kind`` "run" or "study"), newest
+        first."""
+        return self._store.list(status, limit, kind)
+
+    def cancel(self, job_id: str, wait: float = 1.5) -> JobInfo:
+        """Cancel a queued or running job (a finished one is left as it is). A running job's
+        worker stops within about 0.2 s and closes the result file as ``cancelled``; this
+        waits up to ``wait`` seconds for that and returns the job's state."""
+        info = self.get(job_id)
+        if info.done:
+            return info
+        now = time.time()
+        with self._lock:
+            cur = self._db.execute(
+                "UPDATE jobs SET status = 'cancelled', finished = ?, error = ? "
+                "WHERE id = ? AND status = 'queued'",
+                (now, "cancelled before it started", job_id))
+            if cur.rowcount:
+                self._changed.notify_all()
+                return self.get(job_id)
+            self._db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ?", (job_id,))
+            for w in self._workers:
+                if w.job_id == job_id and w.seq is not None:
+                    w.cancel_seq.value = w.seq
+                    if w.cancel_at is None:
+                        w.cancel_at = time.monotonic()
+        self._wake()
+        try:
+            return self.wait(job_id, timeout=wait)
+        except TimeoutError:
+            return self.get(job_id)
+
+    def result_path(self, job_id: str) -> Path:
+        """The job's HDF5 result file (it may not exist yet, or be partial while the job
+        runs; ``engine.open_result`` reads it in every state)."""
+        self.get(job_id)  # KeyError if unknown
+        return self.runs_dir / job_id / "result.h5"
+
+    def scene_path(self, job_id: str) -> Path:
+        """The scene the job runs, as JSON (mesh references resolved)."""
+        self.get(job_id)
+        return self.runs_dir / job_id / "scene.json"
+
+    def wait(self, job_id: str, timeout: Optional[float] = None) -> JobInfo:
+        """Block until the job is finished; TimeoutError after ``timeout`` seconds."""
+        return self._store.wait(job_id, timeout)
+
+    def counts(self) -> dict:
+        """Number of jobs per status."""
+        return self._store.counts()
+
+    def worker_pids(self) -> list[int]:
+        with self._lock:
+            return [w.pid for w in self._workers if w.process.is_alive()]
+
+    def workers_info(self) -> list[dict]:
+        """The live worker processes: pid, ready, numba's thread count, the job running."""
+        with self._lock:
+            return [{"pid": w.pid, "ready": w.ready, "numba_threads": w.numba_threads,
+                     "job": w.job_id} for w in self._workers if w.process.is_alive()]
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop the pool: running jobs are cancelled (their files closed as ``cancelled``),
+        queued jobs stay queued for the next manager on this folder."""
+        with self._lock:
+            if self._closing:
+                return
+            self._closing = True
+            for w in self._workers:
+                if w.job_id is not None and w.seq is not None:
+                    w.cancel_seq.value = w.seq
+        self._wake()
+        self._monitor.join(timeout + 5.0)
+        self._store.close()
+        for fd in (self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        try:
+            self._lock_file.close()
+        except OSError:
+            pass
+
+    def __enter__(self) -> "JobManager":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ meshes
+    def add_mesh(self, data: bytes, filename: str) -> dict:
+        """Store an uploaded STL/OBJ/PLY mesh (:meth:`MeshStore.add_mesh`)."""
+        return self._meshes.add_mesh(data, filename)
+
+    def list_meshes(self) -> list[dict]:
+        return self._meshes.list_meshes()
+
+    def mesh_path(self, mesh_id: str) -> Path:
+        """The stored file of an uploaded mesh; KeyError if unknown."""
+        return self._meshes.mesh_path(mesh_id)
+
+    def _take_folder_lock(self):
+        import fcntl
+
+        f = open(self.data_dir / "jobs.lock", "a+")
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            raise RuntimeError(f"{self.data_dir} is used by another running job manager "
+                               f"(another server or studio); give each its own data "
+                               f"folder") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{os.getpid()}\n")
+        f.flush()
+        return f
+
+    def _wake(self) -> None:
+        try:
+            os.write(self._wake_w, b"x")
+        except (BlockingIOError, OSError):
+            pass
+
+    # ------------------------------------------------------------------ monitor thread
+    def _monitor_loop(self) -> None:
+        from multiprocessing.connection import wait as mp_wait
+
+        try:
+            while True:
+                with self._lock:
+                    closing = self._closing
+                if closing:
+                    break
+                self._keep_pool()
+                self._dispatch()
+                self._enforce_cancels()
+                with self._lock:
+                    workers = list(self._workers)
+                waitables = [self._wake_r]
+                for w in workers:
+                    waitables += [w.conn, w.process.sentinel]
+                ready = mp_wait(waitables, timeout=0.5)
+                if self._wake_r in ready:
+                    try:
+                        os.read(self._wake_r, 4096)
+                    except OSError:
+                        pass
+                for w in workers:
+                    if w.conn in ready:
+                        self._drain(w)
+                    if w.process.sentinel in ready:
+                        self._on_death(w)
+        except Exception:  # keep the manager usable and say why, rather than die silently
+            traceback.print_exc()
+        finally:
+            self._shutdown_workers()
+
+    def _keep_pool(self) -> None:
+        with self._lock:
+            missing = self.n_workers - len(self._workers)
+        if missing <= 0 or time.monotonic() < self._respawn_after:
+            return
+        for _ in range(missing):
+            w = WorkerHandle(self._ctx, self.threads_per_worker)
+            with self._lock:
+                self._workers.append(w)
+
+    def _dispatch(self) -> None:
+        with self._lock:
+            idle = [w for w in self._workers if w.ready and w.job_id is None]
+        for w in idle:
+            with self._lock:
+                row = self._db.execute(
+                    "SELECT seq, id, scene, kind, study, argv, resolved FROM jobs WHERE "
+                    "status = 'queued' ORDER BY seq LIMIT 1").fetchone()
+                if row is None:
+                    return
+                seq, job_id, scene_json, kind, study, argv, resolved = row
+                cur = self._db.execute(
+                    "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
+                    "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
+                if not cur.rowcount:
+                    continue
+                w.job_id, w.seq, w.cancel_at = job_id, seq, None
+                w.grace = self.study_cancel_grace_s if kind == "study" else \
+                    self.cancel_grace_s
+                self._changed.notify_all()
+            if kind == "study":
+                out = self.runs_dir / job_id / "study"
+                out.mkdir(parents=True, exist_ok=True)
+                argv = json.loads(argv or "[]") + ["--output", str(out)]
+                argv += ["--scheduler", self.scheduler] if self.scheduler else \
+                    ["--workers", "1"]
+                msg = ("study", seq, job_id, study, self._study_options(job_id, study, resolved),
+                       argv, str(out))
+            else:
+                h5 = self.runs_dir / job_id / "result.h5"
+                h5.parent.mkdir(parents=True, exist_ok=True)
+                msg = ("run", seq, job_id, scene_json, str(h5))
+            try:
+                w.conn.send(msg)
+            except (OSError, ValueError):
+                pass  # the worker died: its sentinel reports it and fails the job
+
+    def _study_options(self, job_id: str, study: str, resolved: Optional[str]) -> dict:
+        """A study job's typed options as data, run on this manager's scheduler (or one
+        worker in the job's process). A job queued by an older version has none stored:
+        they are made again from the options it was submitted with."""
+
+        if resolved:
+            data = json.loads(resolved)
+        else:
+            data = options_to_dict(make_options(study, self.get(job_id).options)[0])
+        data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
+        return data
+
+    def _drain(self, w: WorkerHandle) -> None:
+        while True:
+            try:
+                if not w.conn.poll():
+                    return
+                msg = w.conn.recv()
+            except (EOFError, OSError):
+                return
+            self._handle(w, msg)
+
+    def _handle(self, w: WorkerHandle, msg) -> None:
+        kind = msg[0]
+        if kind == "ready":
+            w.ready = True
+            w.numba_threads = msg[2]
+            self._start_failures = 0
+            return
+        job_id, data = msg[1], msg[2]
+        if job_id != w.job_id:
+            return
+        if kind == "built":
+            self._store.update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
+                         until=data["until"], sim_time=data["sim_time"],
+                         assembled=data["assembled"], warnings=data["warnings"])
+        elif kind == "study_progress":
+            self._store.update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
+                         message=str(data.get("message") or "")[:300])
+        elif kind == "progress":
+            self._store.update(job_id, sim_time=data["sim_time"], until=data["until"],
+                         progress=min(max(float(data["progress"]), 0.0), 1.0),
+                         steps_per_s=data["steps_per_s"], eta_s=data["eta_s"])
+        elif kind == "done":
+            summary = data["summary"] or {}
+            status = data["status"] if data["status"] in FINAL_STATUSES else "failed"
+            error = data["error"]
+            if status == "cancelled" and error is None:
+                error = ("interrupted: the job manager was closed" if self._closing
+                         else "cancelled")
+            values = dict(status=status, finished=data["finished"], summary=summary,
+                          stages=summary.get("stages") or {}, error=error, eta_s=0.0
+                          if status in ("completed", "stopped") else None)
+            if status in ("completed", "stopped"):
+                values["progress"] = 1.0
+            if isinstance(summary.get("time"), (int, float)):
+                values["sim_time"] = float(summary["time"])
+            if summary.get("warnings"):
+                values["warnings"] = list(self.get(job_id).warnings) + [
+                    x for x in summary["warnings"] if x not in self.get(job_id).warnings]
+            self._store.update(job_id, **values)
+            with self._lock:
+                w.job_id = w.seq = w.cancel_at = None
+
+    def _on_death(self, w: WorkerHandle) -> None:
+        self._drain(w)  # what it sent before dying
+        w.process.join(1.0)
+        code = w.process.exitcode
+        with self._lock:
+            if w in self._workers:
+                self._workers.remove(w)
+            job_id = w.job_id
+            w.job_id = w.seq = None
+        if job_id is not None:
+            cancel_requested = w.cancel_at is not None
+            reason = describe_exit(code)
+            if cancel_requested:
+                status, error = "cancelled", (f"cancelled: the worker process (pid {w.pid}) "
+                                              f"did not stop in time and was ended ({reason})")
+            else:
+                status, error = "failed", (f"the worker process (pid {w.pid}) died while "
+                                           f"running this job ({reason}); the result file "
+                                           f"keeps the frames recorded before")
+            self._store.update(job_id, status=status, finished=time.time(), error=error,
+                         eta_s=None)
+        if not w.ready:  # died while starting: say so, and do not respawn in a tight loop
+            self._start_failures += 1
+            delay = min(2.0 * 2 ** (self._start_failures - 1), 60.0)
+            self._respawn_after = time.monotonic() + delay
+            if self._start_failures in (1, 3, 10):
+                print(f"brush-studio jobs: a worker process failed to start ({describe_exit(code)})"
+                      f"; retrying in {delay:.0f} s (a script creating a JobManager must do so "
+                      f"under `if __name__ == '__main__':`)", file=sys.stderr)
+        else:
+            self._start_failures = 0
+        try:
+            w.conn.close()
+        except OSError:
+            pass
+
+    def _enforce_cancels(self) -> None:
+        now = time.monotonic()
+        with self._lock:
+            late = [w for w in self._workers if w.job_id is not None
+                    and w.cancel_at is not None and now - w.cancel_at > w.grace]
+        for w in late:
+            w.process.terminate()  # its sentinel fires; _on_death marks the job cancelled
+
+    def _shutdown_workers(self) -> None:
+        with self._lock:
+            workers = list(self._workers)
+        # a study closes its Dask cluster when cancelled: give it longer than a run
+        studies = any(w.job_id is not None and w.grace > self.cancel_grace_s for w in workers)
+        deadline = time.monotonic() + (20.0 if studies else 5.0)
+        # running jobs were asked to cancel: let them close their files
+        for w in workers:
+            while w.job_id is not None and w.process.is_alive() and \
+                    time.monotonic() < deadline:
+                if w.conn.poll(0.1):
+                    self._drain(w)
+        for w in workers:
+            job_id = w.job_id
+            w.stop()
+            if job_id is not None:
+                self._store.update(job_id, status="cancelled", finished=time.time(),
+                             error="interrupted: the job manager was closed while this job "
+                                   "ran")
+        with self._lock:
+            self._workers.clear()

@@ -1,0 +1,160 @@
+"""``/api/runs``: scene jobs: submit, list, state, cancel, result file, channel series."""
+# (no ``from __future__ import annotations``: FastAPI reads the route functions' annotations,
+# which must be the classes imported inside the router functions, not their names)
+
+import json
+from typing import Optional
+
+from ..jobs import FINAL_STATUSES, STATUSES, JobManager, jsonable
+from .common import non_finite_paths, not_found_job, scene_error
+
+MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
+
+
+def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
+    """The routes of scene jobs (``guarded``: the dependencies of every route)."""
+    import anyio
+    from fastapi import APIRouter, HTTPException, Query, Request
+    from fastapi.responses import FileResponse, JSONResponse
+
+    import engine
+
+    router = APIRouter()
+
+    def job_or_404(job_id: str):
+        return not_found_job(jobs, job_id)
+
+    @router.post("/api/runs", status_code=201, dependencies=guarded, tags=["runs"],
+              summary="Submit a scene to run",
+              responses={422: {"description": "invalid scene: every bad field, with its value "
+                                              "and what is allowed"},
+                         413: {"description": "request body too large"}},
+              openapi_extra={"requestBody": {"required": True, "content": {
+                  "application/json": {"schema": {"type": "object",
+                                                  "description": "a scene (docs/scene.md)"}}}}})
+    async def submit_run(request: Request,
+                         name: Optional[str] = Query(None, max_length=200,
+                                                     description="a label for the run "
+                                                                 "(default: the scene's name)")):
+        """The body is a scene as JSON (docs/scene.md). Returns the new run (its ``id``);
+        the run is queued and starts when a worker is free. A mesh shape names an uploaded
+        mesh as ``"file": "mesh:<id>"`` (see ``POST /api/meshes``)."""
+        raw = await request.body()
+        try:
+            data = json.loads(raw)
+        except (ValueError, UnicodeDecodeError) as exc:
+            return scene_error(engine.SceneError.single("(body)", None,
+                                                        f"must be a JSON object: {exc}"))
+        if not isinstance(data, dict):
+            return scene_error(engine.SceneError.single("(body)", type(data).__name__,
+                                                        "must be a JSON object (a scene)"))
+        bad = non_finite_paths(data)
+        if bad:
+            from engine.errors import FieldProblem
+
+            return scene_error(engine.SceneError(
+                [FieldProblem(p, "NaN/Infinity", "must be a finite number") for p in bad]))
+        try:
+            job_id = await anyio.to_thread.run_sync(
+                lambda: jobs.submit(data, name=name, allow_files=allow_files))
+        except engine.SceneError as exc:
+            return scene_error(exc)
+        info = jobs.get(job_id).to_dict()
+        return JSONResponse(status_code=201, content=info,
+                            headers={"Location": f"/api/runs/{job_id}"})
+
+    @router.get("/api/runs", dependencies=guarded, tags=["runs"], summary="List runs")
+    def list_runs(status: Optional[str] = Query(None, description=f"one of {STATUSES}"),
+                  limit: Optional[int] = Query(None, ge=1, le=100_000)):
+        """Every run, newest first (optionally only those with ``status``)."""
+        if status is not None and status not in STATUSES:
+            raise HTTPException(422, f"status = {status!r}: must be one of {list(STATUSES)}")
+        return [i.to_dict() for i in jobs.list(status=status, limit=limit, kind="run")]
+
+    @router.get("/api/runs/{job_id}", dependencies=guarded, tags=["runs"], summary="One run")
+    def get_run(job_id: str):
+        """Status (queued, running, completed, stopped, failed, cancelled), progress (0..1),
+        simulated time, steps/s, ETA, dt and what limits it, stage timings, the engine's
+        summary and the error message of a failed run."""
+        return job_or_404(job_id).to_dict()
+
+    @router.delete("/api/runs/{job_id}", dependencies=guarded, tags=["runs"],
+                summary="Cancel a run")
+    def cancel_run(job_id: str):
+        """A queued run is cancelled at once; a running one stops within a second and its
+        result file keeps the frames recorded so far. A finished run is left as it is."""
+        job_or_404(job_id)
+        return jobs.cancel(job_id).to_dict()
+
+    @router.get("/api/runs/{job_id}/result", dependencies=guarded, tags=["runs"],
+             summary="Download the HDF5 result file",
+             responses={200: {"content": {"application/x-hdf5": {}}},
+                        409: {"description": "the run has not finished"}})
+    def get_result(job_id: str):
+        info = job_or_404(job_id)
+        if info.status not in FINAL_STATUSES:
+            raise HTTPException(409, f"run {job_id} is {info.status}: its result file can be "
+                                     f"downloaded when it has finished (GET "
+                                     f"/api/runs/{job_id}/series reads it live)")
+        path = jobs.result_path(job_id)
+        if not path.is_file():
+            raise HTTPException(404, f"run {job_id} ({info.status}) has no result file"
+                                     + (f": {info.error}" if info.error else ""))
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in info.name)[:80]
+        return FileResponse(path, media_type="application/x-hdf5",
+                            filename=f"{safe or 'run'}-{job_id}.h5")
+
+    @router.get("/api/runs/{job_id}/scene", dependencies=guarded, tags=["runs"],
+             summary="The scene a run runs")
+    def get_run_scene(job_id: str):
+        job_or_404(job_id)
+        return json.loads(jobs.scene_path(job_id).read_text())
+
+    @router.get("/api/runs/{job_id}/series", dependencies=guarded, tags=["runs"],
+             summary="Recorded channels as JSON arrays")
+    def get_series(job_id: str,
+                   channel: Optional[list[str]] = Query(
+                       None, description="channel name(s), e.g. brushes/brush/root_force; "
+                                         "repeat for several; none: list the channels"),
+                   start: int = Query(0, ge=0, description="first frame"),
+                   stop: Optional[int] = Query(None, ge=0, description="frame to stop before"),
+                   step: int = Query(1, ge=1, description="every step-th frame")):
+        """``time`` (s) and, per channel, ``values``: one row per frame (a number, or a list
+        for vector channels; non-finite numbers as null). Works while the run is running
+        (the frames recorded so far). Without ``channel``: the list of channels."""
+        info = job_or_404(job_id)
+        path = jobs.result_path(job_id)
+        if not path.is_file():
+            raise HTTPException(409 if info.status in ("queued", "running") else 404,
+                                f"run {job_id} is {info.status} and has no result file yet")
+        try:
+            res = engine.open_result(path)
+        except engine.BrushStudioError as exc:
+            raise HTTPException(409, f"result file of run {job_id} cannot be read yet: "
+                                     f"{exc}") from None
+        with res:
+            channels = list(res.channels())
+            if not channel:
+                return {"id": job_id, "status": res.status, "n_frames": res.n_frames,
+                        "channels": channels}
+            unknown = [c for c in channel if c not in channels]
+            if unknown:
+                raise HTTPException(422, f"unknown channel(s) {unknown}: this run records "
+                                         f"{channels}")
+            frames = slice(start, stop, step)
+            time_ = res.time[frames]
+            out = {"id": job_id, "status": res.status, "n_frames": res.n_frames,
+                   "frames": {"start": start, "stop": stop, "step": step},
+                   "time": jsonable(time_), "series": {}}
+            total = len(time_)
+            for c in channel:
+                values = res.series(c, frames)
+                total += values.size
+                if total > MAX_SERIES_POINTS:
+                    raise HTTPException(413, f"more than {MAX_SERIES_POINTS} numbers: ask for "
+                                             f"fewer channels or frames (start/stop/step)")
+                out["series"][c] = {"shape": list(values.shape[1:]),
+                                    "values": jsonable(values)}
+            return out
+
+    return router

@@ -1,0 +1,134 @@
+"""``/api/studies`` and ``/api/study-types``: study jobs (a study run by the job layer) and
+their output files."""
+# (no ``from __future__ import annotations``: FastAPI reads the route functions' annotations,
+# which must be the classes imported inside the router functions, not their names)
+
+import json
+from typing import Optional
+
+from ..jobs import STATUSES, STUDIES, JobManager, StudyOptionError, jsonable, study_options
+
+
+def studies_router(jobs: JobManager, guarded: list):
+    """The routes of study jobs (``guarded``: the dependencies of every route)."""
+    import anyio
+    from fastapi import APIRouter, HTTPException, Query, Request
+    from fastapi.responses import FileResponse, JSONResponse
+
+    router = APIRouter()
+
+    def study_or_404(job_id: str):
+        try:
+            info = jobs.get(job_id)
+        except KeyError:
+            info = None
+        if info is None or info.kind != "study":
+            raise HTTPException(404, f"no study with id {job_id!r}")
+        return info
+
+    def option_error(exc: StudyOptionError) -> JSONResponse:
+        top = ("study", "options", "name", "(body)")
+        detail = [{"loc": ["body", o] if o in top else ["body", "options", o], "msg": m,
+                   "type": "study_option_error", "option": o, "value": jsonable(v)}
+                  for o, v, m in exc.problems]
+        return JSONResponse(status_code=422, content={"detail": detail,
+                                                      "message": str(exc)})
+
+    @router.post("/api/studies", status_code=201, dependencies=guarded, tags=["studies"],
+              summary="Submit a study",
+              responses={422: {"description": "unknown study, unknown or bad option, an "
+                                              "option the server sets itself (output, "
+                                              "scheduler, workers) or a file path where a "
+                                              "preset name belongs"}},
+              openapi_extra={"requestBody": {"required": True, "content": {
+                  "application/json": {"schema": {"type": "object", "properties": {
+                      "study": {"type": "string", "enum": list(STUDIES)},
+                      "options": {"type": "object", "description": "the study's command-line "
+                                  "options by name, e.g. {\"preset\": \"wedge_60\", "
+                                  "\"depth_mm\": 2, \"nodes\": 3} (GET /api/study-types)"},
+                      "name": {"type": "string"}}, "required": ["study"]}}}}})
+    async def submit_study(request: Request):
+        """Queue a study (docs/studies.md) as a job; its files go to the job's own folder
+        (``GET /api/studies/{id}/files``). Scenes are preset names only."""
+        raw = await request.body()
+        try:
+            data = json.loads(raw)
+        except (ValueError, UnicodeDecodeError) as exc:
+            return option_error(StudyOptionError([("(body)", None,
+                                                   f"must be a JSON object: {exc}")]))
+        if not isinstance(data, dict) or not isinstance(data.get("study"), str):
+            return option_error(StudyOptionError([(
+                "study", None, f"the body must be a JSON object with 'study' (one of "
+                               f"{list(STUDIES)}), 'options' and 'name'")]))
+        extra = sorted(set(data) - {"study", "options", "name"})
+        if extra:
+            return option_error(StudyOptionError([(
+                "(body)", extra, "unknown key(s): the body holds 'study', 'options' (the "
+                                 "study's options) and 'name'")]))
+        name = data.get("name")
+        if name is not None and not isinstance(name, str):
+            return option_error(StudyOptionError([("name", name, "must be text")]))
+        try:
+            job_id = await anyio.to_thread.run_sync(
+                lambda: jobs.submit_study(data["study"], data.get("options") or {},
+                                          name=name))
+        except StudyOptionError as exc:
+            return option_error(exc)
+        return JSONResponse(status_code=201, content=jobs.get(job_id).to_dict(),
+                            headers={"Location": f"/api/studies/{job_id}"})
+
+    @router.get("/api/studies", dependencies=guarded, tags=["studies"], summary="List studies")
+    def list_studies(status: Optional[str] = Query(None, description=f"one of {STATUSES}"),
+                     limit: Optional[int] = Query(None, ge=1, le=100_000)):
+        """Every study job, newest first (scene runs are under ``/api/runs``)."""
+        if status is not None and status not in STATUSES:
+            raise HTTPException(422, f"status = {status!r}: must be one of {list(STATUSES)}")
+        return [i.to_dict() for i in jobs.list(status=status, limit=limit, kind="study")]
+
+    @router.get("/api/study-types", dependencies=guarded, tags=["studies"],
+             summary="The studies and their options")
+    def study_types():
+        """For each study, the options ``POST /api/studies`` accepts: name, kind (flag,
+        value, list), help, default, required, choices, and whether it names a preset."""
+        return {s: study_options(s) for s in STUDIES}
+
+    @router.get("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
+             summary="One study")
+    def get_study(job_id: str):
+        """Status, progress (0..1) and ``message`` (the study's progress text), its
+        ``files`` so far, ``summary`` (exit code, wall time, runs) and ``error``."""
+        return study_or_404(job_id).to_dict()
+
+    @router.delete("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
+                summary="Cancel a study")
+    def cancel_study(job_id: str):
+        """Stops the study like Ctrl-C: its finished runs keep their files."""
+        study_or_404(job_id)
+        return jobs.cancel(job_id).to_dict()
+
+    @router.get("/api/studies/{job_id}/files", dependencies=guarded, tags=["studies"],
+             summary="A study's output files")
+    def list_study_files(job_id: str):
+        """Names (paths relative to the study's folder, e.g. ``force_depth.csv``,
+        ``runs/wedge_60.h5``) with their sizes."""
+        info = study_or_404(job_id)
+        folder = jobs.study_dir(job_id)
+        files = [{"name": n, "bytes": (folder / n).stat().st_size} for n in info.files]
+        return {"id": job_id, "status": info.status, "files": files}
+
+    @router.get("/api/studies/{job_id}/files/{name:path}", dependencies=guarded,
+             tags=["studies"], summary="Download one output file of a study")
+    def get_study_file(job_id: str, name: str):
+        """Only names listed by ``GET /api/studies/{id}/files`` are served."""
+        study_or_404(job_id)
+        try:
+            path = jobs.study_file(job_id, name)
+        except KeyError:
+            raise HTTPException(404, f"study {job_id} has no file {name!r} (GET "
+                                     f"/api/studies/{job_id}/files lists them)") from None
+        media = {".csv": "text/csv", ".png": "image/png", ".json": "application/json",
+                 ".h5": "application/x-hdf5", ".txt": "text/plain"}.get(path.suffix.lower(),
+                                                                    "application/octet-stream")
+        return FileResponse(path, media_type=media, filename=path.name)
+
+    return router

@@ -1,0 +1,70 @@
+"""The 3D studio's own HTTP routes, served beside the API on the studio's ``--api-port``:
+``/studio`` (open the studio, on a preset), ``/studio/presets`` and ``/studio/state``.
+
+(No ``from __future__ import annotations`` here: FastAPI reads the route functions'
+annotations, which must be objects, not names of locally imported classes.)
+"""
+import threading
+from typing import Optional
+
+from ..presets import load_preset_or_file, preset_names
+
+
+def studio_router(studio, viser_port: int):
+    """The routes of ``studio`` (a :class:`studio.app.Studio`), whose page is on
+    ``viser_port``."""
+    from fastapi import APIRouter, Header, HTTPException
+    from fastapi.responses import RedirectResponse
+
+    router = APIRouter(tags=["studio"])
+
+    def open_studio(request_host: str, preset: Optional[str]):
+        if preset:
+            import engine
+
+            if preset not in preset_names():  # names only: no file paths from a URL
+                raise HTTPException(404, detail=f"no preset {preset!r}; presets: "
+                                                f"{preset_names()}")
+            try:
+                load_preset_or_file(preset)
+            except engine.SceneError as exc:
+                raise HTTPException(422, detail=[str(p) for p in exc.problems])
+            studio.load_preset(preset)
+        host = request_host.split(":")[0] if request_host else "127.0.0.1"
+        return RedirectResponse(f"http://{host}:{viser_port}/", status_code=307)
+
+    @router.get("/studio")
+    def studio_landing(preset: Optional[str] = None, host: Optional[str] = Header(None)):
+        """Open the studio, on ``preset`` (a name from GET /studio/presets) if given."""
+        return open_studio(host or "", preset)
+
+    @router.get("/studio/presets")
+    def studio_presets():
+        return {"presets": preset_names()}
+
+    @router.get("/studio/state")
+    def studio_state():
+        return studio.state()
+
+    return router
+
+
+def make_api_app(jobs, studio, viser_port: int, token: Optional[str] = None):
+    """The HTTP API app (:func:`studio.server.create_app`) plus the studio's own routes."""
+    from . import create_app
+
+    app = create_app(jobs, token=token)
+    app.include_router(studio_router(studio, viser_port))
+    return app
+
+
+def serve_in_thread(app, host: str, port: int):
+    """Serve ``app`` with uvicorn in a daemon thread: ``(server, thread)``; stop it with
+    ``server.should_exit = True``."""
+    import uvicorn
+
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning")
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name="studio-api", daemon=True)
+    thread.start()
+    return server, thread

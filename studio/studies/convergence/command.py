@@ -1,0 +1,138 @@
+"""``brush-studio convergence``: the typed Options, ``run`` and the command line."""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+from ...exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .quantities import ConvergenceError, QUANTITY_HELP, parse_quantity
+from .ladder import parse_factors, parse_ladder
+from .running import run_convergence
+
+
+def _err(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+@dataclass
+class Options:
+    """``brush-studio convergence``: ``scene`` (a scene file) run at a ladder of
+    resolutions (``ladder`` "n_nodes=3,5,9" and/or ``dt_factor`` "1,0.5"), ``quantity``
+    measured in each against ``reference``."""
+
+    scene: str
+    quantity: str
+    ladder: Optional[str] = None
+    dt_factor: Optional[str] = None
+    reference: str = "auto"          # auto | analytic | richardson | finest
+    serial: bool = False             # the levels one after another in this process
+    scheduler: Optional[str] = None
+    workers: Optional[int] = None
+    quiet: bool = False              # no progress bar
+
+    @classmethod
+    def from_args(cls, args) -> "Options":
+        import dataclasses
+
+        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
+
+    def to_dict(self) -> dict:
+        import dataclasses
+
+        return dataclasses.asdict(self)
+
+
+def run(options: Options, out_dir, *, progress=None, cancel=None):
+    """The convergence study of ``options`` into ``out_dir``: a ``StudyResult``."""
+    from studio.studies import api
+
+    return api.run_body("convergence", _run_study, options, out_dir, progress, cancel)
+
+
+def _cmd_convergence(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _run_study(options: Options, out: Path) -> int:
+    import engine
+
+    try:
+        q = parse_quantity(options.quantity)
+        n_nodes = parse_ladder(options.ladder) if options.ladder else None
+        factors = parse_factors(options.dt_factor) if options.dt_factor else None
+        if n_nodes is None and factors is None:
+            raise ConvergenceError("give --ladder n_nodes=... and/or --dt-factor ...")
+        scene = engine.load_scene(options.scene)
+    except ConvergenceError as exc:
+        _err(f"error: {exc}")
+        return EXIT_BAD_INPUT
+    except engine.SceneError as exc:
+        _err(f"invalid scene {options.scene}: {len(exc.problems)} problem(s)")
+        for p in exc.problems:
+            _err(f"  {p}")
+        return EXIT_BAD_INPUT
+    try:
+        table = run_convergence(scene, q, out, n_nodes=n_nodes, dt_factors=factors,
+                                reference=options.reference, serial=options.serial,
+                                scheduler=options.scheduler, workers=options.workers,
+                                progress=not options.quiet)
+    except ConvergenceError as exc:
+        _err(f"error: {exc}")
+        return EXIT_BAD_INPUT
+    except engine.SceneError as exc:
+        _err(f"invalid level scene: {len(exc.problems)} problem(s)")
+        for p in exc.problems:
+            _err(f"  {p}")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        _err("cancelled: finished levels are kept in the runs folder and reused next time")
+        return EXIT_CANCELLED
+    print(table.text())
+    print(f"wrote {Path(out) / 'convergence.csv'}, convergence.h5, convergence.json, "
+          "convergence.png")
+    return EXIT_OK if all(r["status"] in ("completed", "stopped") for r in table.rows) \
+        else EXIT_FAILED
+
+
+def register(subparsers) -> None:
+    import argparse
+    import textwrap
+
+    p = subparsers.add_parser(
+        "convergence", help="error against wall time for a ladder of resolutions",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=textwrap.fill(
+                    "Run a scene at a ladder of resolutions (nodes per bristle, time-step "
+                    "factor) in parallel through the studies' Dask layer, measure a quantity "
+                    "of interest in each, and report its error against a reference (analytic "
+                    "where one exists, else Richardson/finest level), the observed order and "
+                    "the wall time. Writes DIR/convergence.csv "
+                    "(level,n_nodes,dt,quantity,error,wall_s), convergence.h5, "
+                    "convergence.json and convergence.png (log-log error vs wall time).", 90),
+        epilog=QUANTITY_HELP + "\n\nexample:\n  brush-studio convergence rod.json --quantity "
+               "tip_deflection --ladder n_nodes=5,9,17 -o rod-convergence\n  "
+               "(rod.json: a static scene, e.g. static_presets/rod_weight_static.json)")
+    p.add_argument("scene", metavar="SCENE.json")
+    p.add_argument("--quantity", "-Q", required=True, metavar="NAME",
+                   help="quantity of interest (below)")
+    p.add_argument("--ladder", metavar="n_nodes=N1,N2,...",
+                   help="nodes per bristle of each level (every brush), increasing")
+    p.add_argument("--dt-factor", metavar="F1,F2,...",
+                   help="run.dt = factor x the level's automatic dt, decreasing; one value "
+                        "applies to every level, several pair up with --ladder")
+    p.add_argument("-o", "--output", metavar="DIR", required=True, help="output folder")
+    p.add_argument("--reference", choices=("auto", "analytic", "richardson", "finest"),
+                   default="auto", help="what the errors are measured against (default auto: "
+                                        "analytic, else Richardson, else the finest level)")
+    p.add_argument("--serial", action="store_true",
+                   help="run the levels one after another in this process, without Dask "
+                        "(wall times undisturbed by parallel levels)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:port); default a local cluster")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="local cluster workers (default one per core)")
+    p.add_argument("-q", "--quiet", "--no-progress", dest="quiet", action="store_true",
+                   help="no progress bar")
+    p.set_defaults(func=_cmd_convergence)
