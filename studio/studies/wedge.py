@@ -75,7 +75,7 @@ METHOD_NOTES = {
                     "moves, local and kinetic damping, equalized inertia, dt at 0.95 of the "
                     "bound; holds end on the out-of-balance force and kinetic energy. On the "
                     "60 deg wedge (5 nodes, 0-10 mm) it matches the dynamic method at a_m "
-                    "0.1 m/s^2 within 2.3 % from 2 mm on, closer than the dynamic method at "
+                    "0.1 m/s^2 within 1.1 % from 2 mm on, closer than the dynamic method at "
                     "a_m 0.4 is to it (docs/studies.md; "
                     "tests/studies/test_wedge_quasistatic.py)",
     "dynamic": "the seed's protocol in physical time under the scene's damping; its curve "
