@@ -24,14 +24,21 @@ from .rotations import qrot, qrot_inv
 
 @njit(cache=True)
 def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
-                          x, bi, bj, seg_rmax, q, sphere_r, watertight, verts, tris, tnormal,
-                          pnormal, grid_origin, grid_cell, grid_dims, grid_base, grid_start,
-                          grid_tris, local):
+                          out_deep, x, rad, bi, bj, seg_rmax, q, sphere_r, watertight, verts,
+                          tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                          grid_base, grid_start, grid_tris, local):
     """(segment, body) pairs whose capsule and body surface are closer than ``skin``, or
     whose segment lies inside a closed body (a sphere, or a watertight mesh: then it may be
     farther than the skin from every face), sorted by (segment, body); the bounding spheres
     prefilter. Segments of a brush mounted on a body never touch that body. Open meshes have
-    no inside: surface distance only. ``local`` is (2, 3) scratch."""
+    no inside: surface distance only. ``local`` is (2, 3) scratch.
+
+    ``out_deep`` gets, per candidate against a watertight mesh, bit 0 (the segment's start
+    node) and bit 1 (its end node) set where that node may lie deeper inside the body than its
+    radius before the next rebuild: it is inside now, or half the skin (the most a node and a
+    body move relative to each other between rebuilds, ``stepper.predicted_displacement``)
+    reaches its radius. A node outside now is then at most half the skin inside, within its
+    radius of a face, where the narrow phase finds it without the deep search."""
     ns = mid.shape[0]
     nk = pos.shape[0]
     cap = out_s.shape[0]
@@ -77,6 +84,17 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                 if n < cap:
                     out_s[n] = s
                     out_b[n] = k
+                    flags = 0
+                    if sphere_r[k] <= 0.0 and watertight[k]:
+                        if 0.5 * skin >= rad[i0] or deep_closest(
+                                k, l0, rad[i0], verts, tris, tnormal, pnormal, grid_origin,
+                                grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
+                            flags |= 1
+                        if 0.5 * skin >= rad[i1] or deep_closest(
+                                k, l1, rad[i1], verts, tris, tnormal, pnormal, grid_origin,
+                                grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
+                            flags |= 2
+                    out_deep[n] = flags
                 n += 1
     return n
 
@@ -246,7 +264,7 @@ BODY_CROSS_END = 0.25
 
 @njit(cache=True, parallel=True)
 def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
-                        seg_material, cs, cb, n_cand, ft, friction, local,
+                        seg_material, cs, cb, deep, n_cand, ft, friction, local,
                         bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
                         verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                         grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
@@ -261,7 +279,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
     if n_cand >= PARALLEL_MIN:
         for c in prange(n_cand):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                                    cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
+                                    cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
@@ -271,7 +289,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
     else:
         for c in range(n_cand):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                                    cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass,
+                                    cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
@@ -282,7 +300,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
 
 @njit(cache=True)
 def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                            cs, cb, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
+                            cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
@@ -350,9 +368,10 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                                                         tnormal, grid_origin, grid_cell,
                                                         grid_dims, grid_base, grid_start,
                                                         grid_tris)
-                if tri < 0 and watertight[k]:
+                if tri < 0 and watertight[k] and (deep[c] >> slot_k) & 1:
                     # no face within the node's radius: the node may be deep inside a
                     # closed body, overlapping by more than its radius; push it out too
+                    # (only where the candidate list says it can be: ``out_deep``)
                     tri, u, vv, ww, d = deep_closest(k, pe, 2.0 * re, verts, tris, tnormal,
                                                      pnormal, grid_origin, grid_cell,
                                                      grid_dims, grid_base, grid_start,

@@ -822,7 +822,8 @@ def _body_list(cap: int, friction: bool) -> BodyList:
                     par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, 3)), dUds=np.zeros(c))
+                    ft2=np.zeros((h, 3)), dUds=np.zeros(c),
+                    deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
 
 
 def grow_lists(system: System, which: int, needed: int) -> None:
@@ -845,6 +846,7 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         n = int(old.n[0])
         new.s[:n] = old.s[:n]
         new.b[:n] = old.b[:n]
+        new.deep[:n] = old.deep[:n]
         if system.flags.friction_body:
             from .body_contacts import BSLOT
             new.ft[:n * BSLOT] = old.ft[:n * BSLOT]

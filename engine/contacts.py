@@ -226,10 +226,19 @@ def point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t):
 
 
 @njit(cache=True, inline="always")
-def _point_overlap(x, rad, j0, j1, px, py, pz):
+def _point_overlap(x, rad, j0, j1, px, py, pz, reject=-math.inf):
     """Largest overlap rb(t) - |p - Q(t)| of a point with the tapered segment j0-j1
-    (without the point's own radius), and its parameter."""
+    (without the point's own radius), and its parameter. Where that overlap is surely at
+    most ``reject`` (``max(rb) - min |p - Q|`` bounds it), the taper's refinement is skipped
+    and the bound returned: a caller that only tests ``> reject`` gets the same answer."""
     t = segment_point_closest(x[j0], x[j1], (px, py, pz))
+    if reject > -math.inf:
+        qx = x[j0, 0] + t * (x[j1, 0] - x[j0, 0]) - px
+        qy = x[j0, 1] + t * (x[j1, 1] - x[j0, 1]) - py
+        qz = x[j0, 2] + t * (x[j1, 2] - x[j0, 2]) - pz
+        bound = max(rad[j0], rad[j1]) - math.sqrt(qx * qx + qy * qy + qz * qz)
+        if bound <= reject:
+            return bound, t
     t = point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t)
     qx = x[j0, 0] + t * (x[j1, 0] - x[j0, 0]) - px
     qy = x[j0, 1] + t * (x[j1, 1] - x[j0, 1]) - py
@@ -318,6 +327,22 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
     a = pa[p]
     b = pb[p]
     base = p * NSLOT
+    # the capsules apart (axis distance beyond both segments' largest radii): no slot can
+    # touch, since every slot's points lie on the axes
+    s0, t0 = segment_segment_closest(x[bi[a]], x[bj[a]], x[bi[b]], x[bj[b]])
+    gx = (x[bi[a], 0] + s0 * (x[bj[a], 0] - x[bi[a], 0])
+          - x[bi[b], 0] - t0 * (x[bj[b], 0] - x[bi[b], 0]))
+    gy = (x[bi[a], 1] + s0 * (x[bj[a], 1] - x[bi[a], 1])
+          - x[bi[b], 1] - t0 * (x[bj[b], 1] - x[bi[b], 1]))
+    gz = (x[bi[a], 2] + s0 * (x[bj[a], 2] - x[bi[a], 2])
+          - x[bi[b], 2] - t0 * (x[bj[b], 2] - x[bi[b], 2]))
+    reach = (max(rad[bi[a]], rad[bj[a]]) + max(rad[bi[b]], rad[bj[b]]))
+    if gx * gx + gy * gy + gz * gz >= reach * reach:
+        for k in range(NSLOT):
+            active[base + k] = 0
+            clear_history(ft, base + k, friction)
+        xf[base + 4, :, :] = 0.0
+        return
     for k in range(NSLOT):
         slot = base + k
         if k == 0 or k == 2:
@@ -348,7 +373,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             px_ = x[node, 0]
             py_ = x[node, 1]
             pz_ = x[node, 2]
-            ovb, t = _point_overlap(x, rad, j0, j1, px_, py_, pz_)
+            ovb, t = _point_overlap(x, rad, j0, j1, px_, py_, pz_, -rad[node])
             if ovb + rad[node] <= 0.0 or not best_of_neighbours(
                     x, rad, bi, bj, bond_prev, bond_next, second, ovb, px_, py_, pz_):
                 active[slot] = 0

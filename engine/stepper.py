@@ -259,7 +259,8 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
             return OVERFLOW_PAIRS
     if fl.bristle_body:
         m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
-                                      bd.collide, skin, bl.s2, bl.b2, nd.x, bn.i, bn.j,
+                                      bd.collide, skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad,
+                                      bn.i, bn.j,
                                       bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
                                       bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin,
                                       bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
@@ -282,6 +283,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
             bl.ft[:m_new * BSLOT] = bl.ft2[:m_new * BSLOT]
         bl.s[:m_new] = bl.s2[:m_new]
         bl.b[:m_new] = bl.b2[:m_new]
+        bl.deep[:m_new] = bl.deep2[:m_new]
         bl.n[0] = m_new
     nd.x_build[:] = nd.x
     bd.pos_build[:] = bd.pos
@@ -422,7 +424,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             n_cand = bl.n[0]
             bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
                                 bn.has_next,
-                                bn.material, bl.s, bl.b, n_cand, bl.ft, fl.friction_body,
+                                bn.material, bl.s, bl.b, bl.deep, n_cand, bl.ft,
+                                fl.friction_body,
                                 bl.local, bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion,
                                 bd.sphere_r, bd.watertight, bd.material, bd.verts, bd.tris,
                                 bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
