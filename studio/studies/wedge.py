@@ -615,6 +615,11 @@ class Options(ProtocolOptions):
 
     preset: list = field(default_factory=list)
     angles: Optional[str] = None
+    check_increment: bool = False  # rerun each scene with halved increments and compare
+
+
+INCREMENT_TOLERANCE = 0.02  # the increment check's pass mark: 2 % between successive halvings
+INCREMENT_CHECK_SUFFIX = "_half_increment"
 
 
 def add_protocol_options(p) -> None:
@@ -694,6 +699,11 @@ def add_parser(sub) -> None:
     p.add_argument("--angles", metavar="DEG,...",
                    help="wedge angles in degrees, e.g. 30,45,60,75: the presets wedge_<angle> "
                         "(or one --preset with its angle changed)")
+    p.add_argument("--check-increment", action="store_true",
+                   help="quasi-static: run every scene again with each step in twice as many "
+                        "increments and report the largest change of the recorded force "
+                        f"(study.json increment_check; converged within "
+                        f"{INCREMENT_TOLERANCE:.0%}?); about 1.8x the CPU")
     add_protocol_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_wedge)
@@ -737,6 +747,17 @@ def _run_study(options: Options, out: Path) -> int:
     if bad:
         _err(bad)
         return EXIT_BAD_INPUT
+    checks = []
+    if options.check_increment:
+        for s in specs:
+            pr = s.params["protocol"]
+            if pr["method"] != "quasi_static":
+                _err("--check-increment needs the quasi-static method: the dynamic method's "
+                     "steps are not split into increments")
+                return EXIT_BAD_INPUT
+            finer = dict(pr, qs_increments=2 * int(pr["qs_increments"]))
+            checks.append(RunSpec(s.run_id + INCREMENT_CHECK_SUFFIX, s.scene,
+                                  dict(s.params, protocol=finer), TASK))
     for s in specs:
         pr = s.params["protocol"]
         print(f"{s.run_id}: {s.params['source']}; wedge {s.params['angle_deg']:g} deg, "
@@ -745,15 +766,38 @@ def _run_study(options: Options, out: Path) -> int:
               f"{' and back' if pr['unload'] else ''}, nodes/bristle {s.params['n_nodes']}")
     t0 = time.perf_counter()
     try:
-        outcomes = run_many_from_args(specs, out, options, desc="wedge runs")
+        outcomes = run_many_from_args(specs + checks, out, options, desc="wedge runs")
     except KeyboardInterrupt:
         _err("cancelled: finished runs are kept; run the same command again to go on")
         return EXIT_CANCELLED
     wall = time.perf_counter() - t0
-    return write_wedge_outputs(out, specs, outcomes, wall)
+    return write_wedge_outputs(out, specs, outcomes[:len(specs)], wall,
+                               increment_outcomes=outcomes[len(specs):])
 
 
-def write_wedge_outputs(out: Path, specs, outcomes, wall: float) -> int:
+def increment_check(coarse: dict, fine: dict, threshold: float) -> dict:
+    """The recorded force of a run against the same run with halved increments: the largest
+    relative change over records whose (finer) force is above ten times the absolute
+    tolerance ``threshold`` (below it the tolerance itself dominates), and whether it is
+    within :data:`INCREMENT_TOLERANCE`."""
+    fine_at = {(round(d, 12), ph): f for d, f, ph in
+               zip(fine["depth_m"], fine["force_N"], fine["phase"])}
+    worst, at = 0.0, None
+    for d, f, ph in zip(coarse["depth_m"], coarse["force_N"], coarse["phase"]):
+        g = fine_at.get((round(d, 12), ph))
+        if g is None or abs(g) <= 10.0 * threshold:
+            continue
+        rel = abs(f - g) / abs(g)
+        if rel > worst:
+            worst, at = rel, (d, ph)
+    return {"max_rel_change": worst, "at_depth_m": None if at is None else at[0],
+            "at_phase": None if at is None else at[1], "tolerance": INCREMENT_TOLERANCE,
+            "converged": worst <= INCREMENT_TOLERANCE,
+            "compared_above_N": 10.0 * threshold}
+
+
+def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
+                        increment_outcomes=()) -> int:
     from .plots import plot_force_depth
 
     curves, rows, checks = [], [], {}
@@ -797,13 +841,22 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float) -> int:
     if curves:
         plot_force_depth(curves, out / "force_depth.png",
                          "Wedge force against depth (hold-until-steady, seed 4.2)")
-    write_outcomes(out / "outcomes.json", outcomes)
-    write_json_atomic(out / "study.json", {
+    inc = {}
+    for spec, o, fine in zip(specs, outcomes, increment_outcomes):
+        if o.ok and fine.ok:
+            inc[spec.run_id] = increment_check(o.summary, fine.summary,
+                                               spec.params["protocol"]["threshold"])
+            inc[spec.run_id]["cpu_s"] = fine.summary.get("cpu_s")
+    write_outcomes(out / "outcomes.json", list(outcomes) + list(increment_outcomes))
+    summary = {
         "study": "wedge", "wall_s": wall, "runs": len(specs),
-        "failed": [o.run_id for o in outcomes if not o.ok],
+        "failed": [o.run_id for o in list(outcomes) + list(increment_outcomes) if not o.ok],
         "method": METHOD_NOTES,
         "checks": checks,
-        "protocols": {s.run_id: s.params["protocol"] for s in specs}})
+        "protocols": {s.run_id: s.params["protocol"] for s in specs}}
+    if increment_outcomes:
+        summary["increment_check"] = inc
+    write_json_atomic(out / "study.json", summary)
     print()
     print(f"{'run':<22} {'angle':>6} {'peak F [N]':>11} {'unload<load':>11} "
           f"{'hold limit':>10} {'wall':>9}")
@@ -811,9 +864,16 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float) -> int:
         print(f"{rid:<22} {c['angle_deg'] or 0:>6.4g} {c['peak_force_N']:>11.4g} "
               f"{str(c.get('unload_below_load', '-')):>11} {c['hold_limit_hits']:>10} "
               f"{c['wall_s']:>8.1f}s")
+    for rid, c in inc.items():
+        where = ("" if c["at_depth_m"] is None
+                 else f" at {c['at_depth_m'] * 1e3:g} mm ({c['at_phase']})")
+        print(f"{rid}: halving the increments changes the force by at most "
+              f"{c['max_rel_change']:.2%}{where}: "
+              f"{'converged' if c['converged'] else 'NOT converged'} within "
+              f"{c['tolerance']:.0%}")
     print(f"study wall time {wall:.1f} s; outputs in {out}/ (force_depth.csv, "
           f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
-    fails = failures_text(outcomes)
+    fails = failures_text(list(outcomes) + list(increment_outcomes))
     if fails:
         _err("failed runs:\n" + fails)
         return EXIT_FAILED

@@ -15,6 +15,7 @@ force off by more than the tolerance.
 from __future__ import annotations
 
 import csv
+import json
 
 import numpy as np
 import pytest
@@ -68,3 +69,37 @@ def test_quasi_static_does_not_depend_on_the_move_rate(tmp_path):
     thr, rel = PROTOCOL_DEFAULTS["threshold"], PROTOCOL_DEFAULTS["rel_threshold"]
     tol = 2 * max(thr, rel * a[3.0]) + 0.01 * a[3.0]
     assert a[3.0] == pytest.approx(b[3.0], abs=tol)
+
+
+def test_increment_check_compares_the_run_with_halved_increments(tmp_path):
+    """``--check-increment`` reruns the scene with each step in twice as many increments and
+    reports the largest relative change of the recorded force. Checked against the two runs'
+    own HDF5 tables, recomputed here (bug caught: comparing a run with itself, the wrong
+    protocol for the check run, or records at different depths)."""
+    from studio.studies.wedge import INCREMENT_TOLERANCE, read_run_h5
+
+    out = tmp_path / "inc"
+    assert main(["study", "wedge", "--preset", "wedge_60", "--nodes", "3", "--depth-mm", "3",
+                 "--no-unload", "--workers", "1", "--no-progress", "--check-increment",
+                 "-o", str(out)]) == 0
+    check = json.loads((out / "study.json").read_text())["increment_check"]["wedge_60"]
+    coarse = read_run_h5(out / "runs" / "wedge_60.h5")
+    fine = read_run_h5(out / "runs" / "wedge_60_half_increment.h5")
+    assert coarse["protocol"]["qs_increments"] == 1 and fine["protocol"]["qs_increments"] == 2
+    np.testing.assert_allclose(coarse["depth_m"], fine["depth_m"], atol=1e-12)
+    keep = np.abs(fine["force_N"]) > check["compared_above_N"]
+    assert keep.sum() >= 2
+    rel = np.abs(coarse["force_N"][keep] - fine["force_N"][keep]) / np.abs(fine["force_N"][keep])
+    assert check["max_rel_change"] == pytest.approx(rel.max(), rel=1e-12)
+    assert 0.0 < check["max_rel_change"]  # two different paths: not the same run twice
+    assert check["converged"] == (rel.max() <= INCREMENT_TOLERANCE)
+    # the study's own curve is the coarse run's only
+    with open(out / "force_depth.csv", newline="") as fh:
+        assert len(list(csv.DictReader(fh))) == len(coarse["depth_m"])
+
+
+def test_increment_check_refuses_the_dynamic_method(tmp_path, capsys):
+    assert main(["study", "wedge", "--preset", "wedge_60", "--nodes", "3", "--depth-mm", "1",
+                 "--workers", "1", "--no-progress", "--method", "dynamic",
+                 "--check-increment", "-o", str(tmp_path / "d")]) == 2
+    assert "quasi-static" in capsys.readouterr().err
