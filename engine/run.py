@@ -268,14 +268,6 @@ def _instability(system: System, code: int) -> InstabilityError:
                                 f"{system.body_names[int(e[2])]!r}", t,
                                 start_note + "Move the body or the brush base apart.",
                                 detail=f"overlap ratio {e[1]:.3g}")
-    if code == FAIL_OVERLAP_BB:
-        return InstabilityError("bristle-bristle contact overlap",
-                                f"{system.segment_label(int(e[0]))} and "
-                                f"{system.segment_label(int(e[2]))}", t,
-                                f"The capsules overlap by {e[1]:.2f} of the smaller radius "
-                                f"(limit {system.limits[0]:g}): the contact is too soft for the "
-                                f"load or the step too large; {lower_dt}.",
-                                detail=f"overlap ratio {e[1]:.3g}")
     if code == FAIL_OVERLAP_BODY:
         return InstabilityError("bristle-body contact overlap",
                                 f"{system.segment_label(int(e[0]))} against body "

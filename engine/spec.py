@@ -364,7 +364,8 @@ class RunSettings(_Model):
     channels: list[Channel] = Field(default_factory=lambda: list(ALL_CHANNELS))
     stop: Optional[StopCondition] = None
     verlet_skin: Optional[PositiveFloat] = Field(
-        None, description="neighbour-list skin, m; default: half the smallest tip radius")
+        None, description="neighbour-list skin, m; default: the smallest bristle radius "
+                          "(the lists are rebuilt when anything moved half of it)")
 
     @field_validator("channels")
     @classmethod
