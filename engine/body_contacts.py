@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numba import njit, prange
 
 from .bodies import FIXED, KINEMATIC
@@ -268,7 +270,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                         bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
                         verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                         grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
-                        active, fc, cp, par_s, energy, diss, overlap_ratio, dUds, dt):
+                        active, fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
     """Bristle-body contacts of the first ``n_cand`` candidates, up to ``BSLOT`` each:
     slot 0 the segment's start node (a sphere of the node's radius) against the body, slot 1
     the tip node of a bristle's last segment, slot 2 the segment between its nodes against an
@@ -284,7 +286,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dUds,
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
     else:
         for c in range(n_cand):
@@ -294,7 +296,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, dUds,
+                                    active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
 
 
@@ -304,7 +306,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
-                            par_s, energy, diss, overlap_ratio, dUds, dt):
+                            par_s, energy, diss, overlap_ratio, xf, dt):
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
@@ -322,8 +324,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
     for slot_k in range(BSLOT):
         slot = c * BSLOT + slot_k
         active[slot] = 0
-        dUds[slot] = 0.0
         dweight = 0.0
+        inside = False
         if slot_k == 1 and seg_has_next[sg]:
             clear_history(ft, slot, friction)
             continue
@@ -387,6 +389,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                 if tri >= 0 and min(u, min(vv, ww)) > 1e-9:
                     tri = -1
                 weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
+                dweight = (_dsmooth01(min(s, 1.0 - s) / BODY_CROSS_END) / BODY_CROSS_END
+                           * (1.0 if s < 0.5 else -1.0))
             if tri < 0 or weight <= 0.0:
                 clear_history(ft, slot, friction)
                 continue
@@ -408,6 +412,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             side = gx * fnx + gy * fny + gz * fnz
             if watertight[k] and side < 0.0:
                 # the axis point lies inside a closed body: push it out along the face normal
+                inside = True
                 ov = r + d
                 nlx, nly, nlz = fnx, fny, fnz
             else:
@@ -468,14 +473,105 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         energy[slot] = sto
         diss[slot] = dis
         overlap_ratio[slot] = ov / r
-        if sphere_r[k] > 0.0 and slot_k == 2:
+        xf[slot, :, :] = 0.0
+        if slot_k == 2 and not inside:
             # the energy U = 1/2 w(s) k(r(s)) ov^2 also changes with the axis parameter s (the
-            # fade w, the taper r and k proportional to r): dU/ds at fixed positions, applied
-            # by the scatter through grad s (the distance is stationary in s)
+            # fade w, the taper r and k proportional to r); the distance is stationary in s,
+            # so the rest of the gradient is dU/ds grad s (``_fade_forces``)
             k0 = normal_stiffness(E[m1], r, E[m2], r)
             dr = rad[i1] - rad[i0]
-            dUds[slot] = (0.5 * (dweight * k0 + weight * k0 * dr / r) * ov * ov
-                          + weight * k0 * ov * dr)
+            g = (0.5 * (dweight * k0 + weight * k0 * dr / r) * ov * ov
+                 + weight * k0 * ov * dr)
+            if sphere_r[k] > 0.0:
+                _point_fade_forces(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1],
+                                   x[i1, 2], bpos[k, 0], bpos[k, 1], bpos[k, 2], s, g,
+                                   xf[slot])
+                # a sphere's energy does not depend on its rotation: no torque (row 3 = 0)
+            else:
+                _mesh_fade_forces(l0, l1, s, u, vv, ww, verts[tris[tri, 0]],
+                                  verts[tris[tri, 1]], verts[tris[tri, 2]], g, xf[slot])
+                for row in range(4):
+                    xf[slot, row, 0], xf[slot, row, 1], xf[slot, row, 2] = qrot(
+                        qw, qx, qy, qz, xf[slot, row, 0], xf[slot, row, 1], xf[slot, row, 2])
+
+
+@njit(cache=True)
+def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
+    """Forces -g grad s for s = (c - x0).e / e.e, the segment's point closest to the point c
+    (interior): rows 0, 1 on the segment's nodes, row 2 on c, row 3 (torque) untouched."""
+    ex = x1x - x0x
+    ey = x1y - x0y
+    ez = x1z - x0z
+    L2 = ex * ex + ey * ey + ez * ez
+    ax = cx - x0x
+    ay = cy - x0y
+    az = cz - x0z
+    gc = -g / L2
+    # grad_c s = e / L2; grad_x1 s = (a - 2 s e) / L2; grad_x0 s = -(the two)
+    out[2, 0] = gc * ex
+    out[2, 1] = gc * ey
+    out[2, 2] = gc * ez
+    out[1, 0] = gc * (ax - 2.0 * s * ex)
+    out[1, 1] = gc * (ay - 2.0 * s * ey)
+    out[1, 2] = gc * (az - 2.0 * s * ez)
+    for a in range(3):
+        out[0, a] = -(out[1, a] + out[2, a])
+
+
+@njit(cache=True)
+def _mesh_fade_forces(l0, l1, s, u, v, w, va, vb, vc, g, out):
+    """``_point_fade_forces`` for a mesh feature in the body frame: a vertex (one barycentric
+    weight 1), or an edge, where s and the edge's parameter t solve the segment-segment
+    closest-point conditions and grad s follows by differentiating them. Row 2 gets the
+    body's force, row 3 its torque about the centre of mass (the body frame's origin)."""
+    tiny = 1e-9
+    nz = (1 if u > tiny else 0) + (1 if v > tiny else 0) + (1 if w > tiny else 0)
+    if nz == 1:
+        if u > tiny:
+            p = va
+        elif v > tiny:
+            p = vb
+        else:
+            p = vc
+        _point_fade_forces(l0[0], l0[1], l0[2], l1[0], l1[1], l1[2], p[0], p[1], p[2], s,
+                           g, out)
+        out[3, 0] = p[1] * out[2, 2] - p[2] * out[2, 1]
+        out[3, 1] = p[2] * out[2, 0] - p[0] * out[2, 2]
+        out[3, 2] = p[0] * out[2, 1] - p[1] * out[2, 0]
+        return
+    # an edge A-B holding the closest point (1 - t) A + t B
+    if u <= tiny:
+        A, B, t = vb, vc, w / (v + w)
+    elif v <= tiny:
+        A, B, t = va, vc, w / (u + w)
+    else:
+        A, B, t = va, vb, v / (u + v)
+    d1 = (l1[0] - l0[0], l1[1] - l0[1], l1[2] - l0[2])
+    d2 = (B[0] - A[0], B[1] - A[1], B[2] - A[2])
+    a11 = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
+    a22 = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
+    a12 = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
+    det = a12 * a12 - a11 * a22
+    if -det <= 1e-12 * a11 * a22:
+        return  # parallel: s is not defined by the conditions (left without the term)
+    fA = np.zeros(3)
+    fB = np.zeros(3)
+    for c in range(3):
+        r = l0[c] + s * d1[c] - A[c] - t * d2[c]
+        # closest-point conditions g1 = r.d1 = 0, g2 = r.d2 = 0: their derivatives per node
+        e1 = ((1.0 - s) * d1[c] - r, s * d1[c] + r, -(1.0 - t) * d1[c], -t * d1[c])
+        e2 = ((1.0 - s) * d2[c], s * d2[c], -(1.0 - t) * d2[c] - r, r - t * d2[c])
+        dsn = ((a22 * e1[0] - a12 * e2[0]) / det, (a22 * e1[1] - a12 * e2[1]) / det,
+               (a22 * e1[2] - a12 * e2[2]) / det, (a22 * e1[3] - a12 * e2[3]) / det)
+        out[0, c] = -g * dsn[0]
+        out[1, c] = -g * dsn[1]
+        fA[c] = -g * dsn[2]
+        fB[c] = -g * dsn[3]
+    for c in range(3):
+        out[2, c] = fA[c] + fB[c]
+    out[3, 0] = A[1] * fA[2] - A[2] * fA[1] + B[1] * fB[2] - B[2] * fB[1]
+    out[3, 1] = A[2] * fA[0] - A[0] * fA[2] + B[2] * fB[0] - B[0] * fB[2]
+    out[3, 2] = A[0] * fA[1] - A[1] * fA[0] + B[0] * fB[1] - B[1] * fB[0]
 
 
 @njit(cache=True, inline="always")
@@ -488,7 +584,7 @@ def _dsmooth01(u):
 
 @njit(cache=True)
 def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s, energy, diss,
-                         overlap_ratio, dUds, bpos, sphere_r, bf, btq, stats):
+                         overlap_ratio, xf, bpos, bf, btq, stats):
     """Add candidate forces to nodes and bodies (serial). ``stats`` gets [count, stored,
     dissipated, max overlap ratio, candidate index of the max]."""
     count = 0
@@ -517,35 +613,14 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
         btq[k, 0] -= ry * Fz - rz * Fy
         btq[k, 1] -= rz * Fx - rx * Fz
         btq[k, 2] -= rx * Fy - ry * Fx
-        g = dUds[c]
-        if g != 0.0 and sphere_r[k] > 0.0:
-            # -dU/ds grad s, s = (centre - x0).e / e.e: on the nodes and the sphere's centre
-            # (no torque: the sphere's energy does not depend on its rotation)
-            i0 = bi[sg]
-            i1 = bj[sg]
-            s = par_s[c]
-            ex = x[i1, 0] - x[i0, 0]
-            ey = x[i1, 1] - x[i0, 1]
-            ez = x[i1, 2] - x[i0, 2]
-            L2 = ex * ex + ey * ey + ez * ez
-            ax = bpos[k, 0] - x[i0, 0]
-            ay = bpos[k, 1] - x[i0, 1]
-            az = bpos[k, 2] - x[i0, 2]
-            gc = -g / L2
-            # grad_c s = e / L2; grad_x1 s = (a - 2 s e) / L2; grad_x0 s = -(the two)
-            fcx, fcy, fcz = gc * ex, gc * ey, gc * ez
-            f1x = gc * (ax - 2.0 * s * ex)
-            f1y = gc * (ay - 2.0 * s * ey)
-            f1z = gc * (az - 2.0 * s * ez)
-            f[i1, 0] += f1x
-            f[i1, 1] += f1y
-            f[i1, 2] += f1z
-            f[i0, 0] -= f1x + fcx
-            f[i0, 1] -= f1y + fcy
-            f[i0, 2] -= f1z + fcz
-            bf[k, 0] += fcx
-            bf[k, 1] += fcy
-            bf[k, 2] += fcz
+        # the fade's and taper's part of the energy gradient (``_point_fade_forces``)
+        i0 = bi[sg]
+        i1 = bj[sg]
+        for ax in range(3):
+            f[i0, ax] += xf[c, 0, ax]
+            f[i1, ax] += xf[c, 1, ax]
+            bf[k, ax] += xf[c, 2, ax]
+            btq[k, ax] += xf[c, 3, ax]
         e_sto += energy[c]
         e_dis += diss[c]
         if overlap_ratio[c] > worst:

@@ -822,7 +822,7 @@ def _body_list(cap: int, friction: bool) -> BodyList:
                     par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, 3)), dUds=np.zeros(c),
+                    ft2=np.zeros((h, 3)), xf=np.zeros((c, 4, 3)),
                     deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
 
 

@@ -32,7 +32,7 @@ PairList = namedtuple("PairList", [
 
 BodyList = namedtuple("BodyList", [
     "s", "b", "ft", "active", "fc", "cp", "par", "energy", "diss", "ratio", "local", "n",
-    "s2", "b2", "ft2", "dUds", "deep", "deep2"])
+    "s2", "b2", "ft2", "xf", "deep", "deep2"])
 
 Loads = namedtuple("Loads", [
     "node", "load", "force", "start", "times", "values", "frequency", "phase", "amp"])

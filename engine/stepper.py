@@ -431,10 +431,10 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                 bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
                                 bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
                                 tb.mu, tb.kt, tb.zeta, bl.active, bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio,
-                                bl.dUds, dt)
+                                bl.xf, dt)
             scatter_bristle_body(nd.x, nd.f, nd.t, bn.i, bn.j, bl.s, bl.b, n_cand, bl.active,
-                                 bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio, bl.dUds,
-                                 bd.pos, bd.sphere_r, bd.f, bd.tq, stats)
+                                 bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio, bl.xf,
+                                 bd.pos, bd.f, bd.tq, stats)
             acc[ACC_N_BODY] = stats[0]
             acc[ACC_E_BODY] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]
