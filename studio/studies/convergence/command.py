@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
+from ...console import print_scene_error
 from ...exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .quantities import ConvergenceError, QUANTITY_HELP, parse_quantity
 from .ladder import parse_factors, parse_ladder
@@ -69,9 +70,7 @@ def _run_study(options: Options, out: Path) -> int:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
     except engine.SceneError as exc:
-        _err(f"invalid scene {options.scene}: {len(exc.problems)} problem(s)")
-        for p in exc.problems:
-            _err(f"  {p}")
+        print_scene_error(exc, f"invalid scene {options.scene}")
         return EXIT_BAD_INPUT
     try:
         table = run_convergence(scene, q, out, n_nodes=n_nodes, dt_factors=factors,
@@ -82,9 +81,7 @@ def _run_study(options: Options, out: Path) -> int:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
     except engine.SceneError as exc:
-        _err(f"invalid level scene: {len(exc.problems)} problem(s)")
-        for p in exc.problems:
-            _err(f"  {p}")
+        print_scene_error(exc, "invalid level scene")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         _err("cancelled: finished levels are kept in the runs folder and reused next time")
