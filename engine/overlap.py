@@ -53,6 +53,7 @@ class Overlap:
     depth: float
     items: list[str] = field(default_factory=list)
     body: Optional[str] = None   # the body involved (body-bristle, body-body), for the UI
+    bristles: list[int] = field(default_factory=list)  # global indices of those bristles
 
     def __str__(self) -> str:
         shown = ", ".join(self.items[:6]) + (f" and {len(self.items) - 6} more"
@@ -234,7 +235,8 @@ def _body_bristle(positions, radius, bonds, node_bristle, bristle_names, bristle
             mine = np.flatnonzero((deepest > 0) & (bristle_brush == brush))
             out.append(Overlap("body-bristle", f"body {body.name!r}",
                                f"brush {brush_names[brush]!r}", float(deepest[mine].max()),
-                               [bristle_names[b] for b in mine], body=body.name))
+                               [bristle_names[b] for b in mine], body=body.name,
+                               bristles=[int(b) for b in mine]))
     return out
 
 
@@ -280,7 +282,8 @@ def _bristle_bristle(positions, radius, bonds, node_bristle, bristle_names, bris
         out.append(Overlap("bristle-bristle", f"brush {brush_names[ba]!r}",
                            f"brush {brush_names[bb]!r}" if bb != ba else "itself",
                            max(group.values()),
-                           [f"{bristle_names[x]} and {bristle_names[y]}" for x, y in group]))
+                           [f"{bristle_names[x]} and {bristle_names[y]}" for x, y in group],
+                           bristles=sorted({b for xy in group for b in xy})))
     return out
 
 

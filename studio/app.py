@@ -73,6 +73,7 @@ class Studio(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self.last_stream = 0.0
         self.last_cursor = 0.0
         self.n_segments_drawn = 0
+        self.overlaps: list = []    # initial overlaps of the design (engine.overlap)
         self._runs_md = ""
         self._stop = threading.Event()
         self.view = uv.View(server)
@@ -163,6 +164,9 @@ class Studio(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "playback_job": self.playback_job,
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
+                "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
+                              "bristles": len(o.items), "message": str(o)}
+                             for o in self.overlaps],
                 "studies": self.studies.state() if self.studies is not None else None,
                 "scene": self.scene,
             }

@@ -59,6 +59,7 @@ class DesignPanel:
                 self.up_mesh = gui.add_upload_button("Upload mesh (STL/OBJ/PLY)")
                 self.up_mesh.on_upload(self._on_upload_mesh)
                 self.md_body = gui.add_markdown("", visible=False)
+                self.md_overlap = gui.add_markdown("", visible=False)
             for f in us.FIELDS:
                 with folders[f.folder]:
                     self.widgets[f.key] = self._add_widget(f)
@@ -216,27 +217,58 @@ class DesignPanel:
             f"*{self.scene.get('name', 'scene')}*: {nb:,} bristles, {ns:,} segments, "
             f"{len(self.scene.get('bodies') or [])} bod"
             f"{'y' if len(self.scene.get('bodies') or []) == 1 else 'ies'}; "
-            f"{self.scene['run']['duration']:g} s to simulate. View: **{self.mode}**")
+            f"{self.scene['run']['duration']:g} s to simulate. View: **{self.mode}**" +
+            ("  \n<span style='color:#d00'>⚠ the design starts overlapping: see Body</span>"
+             if any(o.kind != "bristle-bristle" for o in getattr(self, "overlaps", ()))
+             else ""))
 
     def redraw_design(self) -> None:
         """Draw the design: bristles at rest, bodies at their pose, the gizmo on the
-        selected body."""
+        selected body; check it for initial overlap (``engine.overlap``, the check
+        ``engine.build`` makes) and mark what overlaps in red, with the message under the
+        Body folder."""
         with self.lock:
+            t0 = time.perf_counter()
+            coarse = uv.n_design_segments(self.scene) > MAX_VIEW_SEGMENTS
+            if coarse:
+                scene = copy.deepcopy(self.scene)
+                for b in scene["brushes"]:
+                    b["n_nodes"] = 2
+            else:
+                scene = self.scene
+            bristles = uv.design_bristles(scene)
+            bodies = uv.design_bodies(self.scene)
+            self._update_overlaps(None if coarse else bristles, bodies)
             if self.mode != "design":
                 return
-            t0 = time.perf_counter()
-            if uv.n_design_segments(self.scene) > MAX_VIEW_SEGMENTS:
-                coarse = copy.deepcopy(self.scene)
-                for b in coarse["brushes"]:
-                    b["n_nodes"] = 2
-                bristles = uv.design_bristles(coarse)
-            else:
-                bristles = uv.design_bristles(self.scene)
-            self.view.set_bristle_nodes(bristles)
+            colors = uv.overlap_segment_colors(bristles, self.overlaps,
+                                               uv.design_bristle_first(scene))
+            self.view.set_bristle_nodes(bristles, colors)
             self.n_segments_drawn = bristles.n_segments
-            self.view.set_bodies(uv.design_bodies(self.scene))
+            self.view.set_bodies(bodies, highlight={o.body for o in self.overlaps if o.body})
             self._place_gizmo()
             self.last_draw_s = time.perf_counter() - t0
+
+    def _update_overlaps(self, bristles, bodies) -> None:
+        """Check the design for initial overlap; show what is found under the Body folder."""
+        try:
+            self.overlaps = uv.design_overlaps(self.scene, bristles, bodies) \
+                if bristles is not None else []
+        except Exception as exc:  # (a check that fails must not stop the design)
+            print(f"studio: overlap check failed: {type(exc).__name__}: {exc}")
+            self.overlaps = []
+        lines = []
+        for o in self.overlaps:
+            refused = o.kind != "bristle-bristle"
+            lines.append(f"<span style='color:{'#d00' if refused else '#b60'}'>"
+                         f"{'⚠ ' if refused else ''}{_md_escape(str(o))}"
+                         f"{' — Start would be refused' if refused else ''}</span>")
+        text = "\n\n".join(lines)
+        if getattr(self, "_overlap_md", None) != text:
+            self._overlap_md = text
+            self.md_overlap.content = text
+            self.md_overlap.visible = bool(text)
+            self._update_summary()
 
     def _place_gizmo(self) -> None:
         bodies = self.scene.get("bodies") or []
@@ -276,9 +308,12 @@ class DesignPanel:
                 self._show_errors({"body_position": [p.message for p in v.problems]})
                 return
             self.scene = us.scene_dict(v.scene)
-            b = uv.design_bodies({"bodies": [self.scene["bodies"][self.sel.body]]})
-            if b:
-                self.view.set_body_pose(b[0].name, b[0].position, b[0].wxyz)
+            if uv.n_design_segments(self.scene) <= uv.MAX_OVERLAP_CHECK_SEGMENTS:
+                self.redraw_design()  # (the overlap check follows the body)
+            else:
+                b = uv.design_bodies({"bodies": [self.scene["bodies"][self.sel.body]]})
+                if b:
+                    self.view.set_body_pose(b[0].name, b[0].position, b[0].wxyz)
             self.refresh_fields()
 
     def _on_name(self, event) -> None:

@@ -40,6 +40,11 @@ class RunPanel:
             return None
         with self.lock:
             scene = copy.deepcopy(self.scene)
+            refused = [o for o in self.overlaps if o.kind != "bristle-bristle"]
+        if refused:  # (the build would refuse it in the worker: say so now)
+            self.md_status.content = "Refused: " + "; ".join(_md_escape(str(o))
+                                                             for o in refused)
+            return None
         try:
             job_id = self.jobs.submit(scene, name=scene.get("name"))
         except engine.SceneError as exc:
