@@ -97,6 +97,8 @@ class Studio(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
             gui.configure_theme(control_width="large")
         self.md_title = gui.add_markdown("**Brush Studio**")
         self.md_summary = gui.add_markdown("")
+        self.bg_view = gui.add_button_group("show", ("design", "run"))
+        self.bg_view.on_click(lambda e: self.show_view(e.target.value))
         tabs = gui.add_tab_group()
         self.tab_design = tabs.add_tab("Design")
         self.tab_run = tabs.add_tab("Run")

@@ -217,10 +217,19 @@ class DesignPanel:
             f"*{self.scene.get('name', 'scene')}*: {nb:,} bristles, {ns:,} segments, "
             f"{len(self.scene.get('bodies') or [])} bod"
             f"{'y' if len(self.scene.get('bodies') or []) == 1 else 'ies'}; "
-            f"{self.scene['run']['duration']:g} s to simulate. View: **{self.mode}**" +
+            f"{self.scene['run']['duration']:g} s to simulate.  \n{self._view_line()}" +
             ("  \n<span style='color:#d00'>⚠ the design starts overlapping: see Body</span>"
              if any(o.kind != "bristle-bristle" for o in getattr(self, "overlaps", ()))
              else ""))
+
+    def _view_line(self) -> str:
+        """What the 3D view shows, in words (and how to switch)."""
+        run = getattr(self, "playback_job", None)
+        if self.mode == "playback":
+            return f"View: **run `{run}`** (the design is not shown: *show → design*)"
+        if self.mode == "live":
+            return f"View: **running job `{self.active_job}`, live**"
+        return "View: **design**" + (f" (run `{run}` is loaded: *show → run*)" if run else "")
 
     def redraw_design(self) -> None:
         """Draw the design: bristles at rest, bodies at their pose, the gizmo on the

@@ -120,6 +120,7 @@ class ResultsPanel:
                                           disabled=True)
             self.sl_time.on_update(self._on_slider)
             self.cb_play = gui.add_checkbox("play", False, disabled=True)
+            self.cb_play.on_update(self._on_play)
             self.dd_speed = gui.add_dropdown("speed (simulated s per s)", SPEEDS,
                                              initial_value="0.25x")
             self.dd_color = gui.add_dropdown("colour bristles by", COLOR_MODES,
@@ -185,8 +186,33 @@ class ResultsPanel:
         return True
 
     def _on_slider(self, event) -> None:
+        """Scrubbing shows the loaded run: after a design edit (which shows the design) the
+        first touch of the slider switches the view back to the run."""
+        if self.mode != "playback" and event.client is not None and self.playback is not None:
+            self.set_mode("playback")
         if self.mode == "playback":
             self._show_frame(int(event.target.value))
+
+    def _on_play(self, event) -> None:
+        if event.client is not None and self.cb_play.value and self.playback is not None:
+            self.set_mode("playback")
+            self._show_frame(int(self.sl_time.value))
+
+    def show_view(self, which: str) -> bool:
+        """Show the design or the run (the loaded playback, else the running job live).
+        Returns False when there is no run to show."""
+        with self.lock:
+            if which == "design":
+                self.set_mode("design")
+                return True
+            if self.playback is not None:
+                self.set_mode("playback")
+                self._show_frame(max(int(self.sl_time.value), 0))
+                return True
+            if self.active_job is not None:
+                self.set_mode("live")
+                return True
+            return False
 
     def _show_frame(self, i: int, source: Optional[ResultFrames] = None) -> None:
         """Draw frame ``i`` of the playback (or live) result."""
