@@ -3,22 +3,24 @@
     brush-studio studio [--host 127.0.0.1] [--port 8080] [--preset NAME_OR_PATH]
                         [--data DIR] [--workers N] [--api-port PORT]
 
-One design session per server, shared by every browser tab that connects (like a document
-open in one editor): the panels on the left edit the scene (millimetres and degrees, SI
-inside), the 3D view follows every change at once, Start queues the design as a job in the
-background worker pool (``studio.jobs.JobManager``: the worker process runs the engine and
-writes HDF5; this process only reads result files with ``engine.open_result``), the latest
-frames of a running job stream into the view, and a finished run can be scrubbed, played and
-plotted. The Studies tab (``studio.ui_studies``) starts a study (wedge, spin, refinement,
-convergence...) as a job of the same pool and shows its plots, table and files. Beside
-viser, the same JobManager is served as the HTTP API (``studio.server``) on ``--api-port``
-(default port + 1), plus two studio routes:
+One design session per browser tab (``studio.session.Session``: the panels of
+``studio.panels`` over the tab's own GUI and scene handles): the panels on the left edit that
+tab's scene (millimetres and degrees, SI inside), the 3D view follows every change at once,
+Start queues the design as a job in the shared background worker pool
+(``studio.jobs.JobManager``: the worker process runs the engine and writes HDF5; this process
+only reads result files with ``engine.open_result``), the latest frames of a running job
+stream into the view, and a finished run can be scrubbed, played and plotted. Runs and
+studies are shared: every tab lists every job. The Studies tab (``studio.ui_studies``)
+starts a study as a job of the same pool. Beside viser, the same JobManager is served as the
+HTTP API (``studio.server``) on ``--api-port`` (default port + 1), plus the studio routes:
 
-* ``GET /studio?preset=NAME`` opens the studio on a preset: it loads the preset into the
-  session and redirects the browser to the viser page (viser 1.1 does not tell the server
-  the page URL a client was opened with, so the preset is set before the page loads);
-* ``GET /studio/state``: what the studio shows (mode, instanced segments, bodies' poses,
-  timeline frame, field errors) as JSON, for scripts and the browser tests.
+* ``GET /studio?preset=NAME`` (or ``?design=ID``, a design shared with the Share button)
+  redirects to the viser page with a websocket URL naming the design
+  (``/?websocket=ws://HOST:PORT/preset/NAME``): the new tab's own session opens on it, and
+  the page's URL is a link to it; nobody else's design changes;
+* ``GET /studio/state[?client=ID]``: what a session shows (mode, instanced segments, bodies'
+  poses, timeline frame, field errors, initial overlaps) as JSON, for scripts and the
+  browser tests; ``sessions`` lists the open ones.
 
 See docs/studio.md.
 """
@@ -32,153 +34,177 @@ import time
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
-
-from . import ui_scene as us
-from . import ui_view as uv
 from .console import print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
-from .panels.common import POLL_S, STREAM_HZ, STUDIES_POLL_S
-from .panels.design import DesignPanel
-from .panels.results import ResultFrames, ResultsPanel  # noqa: F401  (ResultFrames: public)
-from .panels.run import RunPanel
-from .panels.studies import StudiesPanel
+from .panels.common import STREAM_HZ
+from .panels.results import ResultFrames  # noqa: F401  (the studio's public name)
+from .session import Session
 from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
 
 DEFAULT_DATA_DIR = "brush-studio-data"
 
 
 # =========================================================================== the studio
-class Studio(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
-    """The viser studio. ``server``: a ``viser.ViserServer``; ``jobs``: a
-    ``studio.jobs.JobManager`` (or None: designing only). The panels (``studio.panels``)
-    hold each tab's widgets and handlers; this class holds what they share and the poller."""
+class Studio:
+    """The viser studio: what every tab shares. ``server``: a ``viser.ViserServer``;
+    ``jobs``: a ``studio.jobs.JobManager`` (or None: designing only); ``scene``: the design a
+    new session opens on.
 
-    def __init__(self, server, jobs, scene, data_dir: Optional[Path] = None):
+    ``per_client=True`` (``brush-studio studio``): each tab that connects gets its own
+    :class:`studio.session.Session` (design, playback, selection), opened on the design its
+    URL names (``/?websocket=ws://HOST:PORT/preset/NAME`` or ``.../design/ID``, which
+    ``GET /studio?preset=NAME`` redirects to) or else on ``scene``. ``per_client=False``: one
+    session drawn for every tab, whose attributes this object forwards (scripts, tests)."""
+
+    def __init__(self, server, jobs, scene, data_dir: Optional[Path] = None,
+                 per_client: bool = False):
         self.server = server
         self.jobs = jobs
         self.data_dir = Path(data_dir) if data_dir is not None else None
-        self.lock = threading.RLock()
-        self.scene: dict = us.scene_dict(scene)
-        self.sel = us.Selection()
-        self.errors: dict[str, list[str]] = {}
-        self.mode = "design"          # design | live | playback
-        self.active_job: Optional[str] = None    # the job streamed live
-        self.my_jobs: list[str] = []
-        self.playback: Optional[ResultFrames] = None
-        self.playback_job: Optional[str] = None
-        self.live: Optional[ResultFrames] = None
-        self.frame_index = 0
-        self.play_clock = None
-        self.last_stream = 0.0
-        self.last_cursor = 0.0
-        self.n_segments_drawn = 0
-        self.overlaps: list = []    # initial overlaps of the design (engine.overlap)
-        self._runs_md = ""
+        self.default_scene = scene
+        self.per_client = per_client
+        self.sessions: dict[int, Session] = {}
+        self.sessions_lock = threading.RLock()
         self._stop = threading.Event()
-        self.view = uv.View(server)
+        try:
+            server.gui.configure_theme(control_width="large", show_share_button=False)
+        except TypeError:
+            server.gui.configure_theme(control_width="large")
         server.scene.set_up_direction("+z")
         server.scene.add_grid("/grid", width=200.0, height=200.0, cell_size=10.0,
                               section_size=50.0, plane="xy", position=(0.0, 0.0, 0.0))
-        self._build_gui()
-        self.gizmo = None
-        self.redraw_design()
-        self.refresh_fields()
+        self.shared: Optional[Session] = None
+        if not per_client:
+            self.shared = Session(server, jobs, scene, data_dir=self.data_dir,
+                                  share=self.share_design)
         server.on_client_connect(self._on_connect)
+        server.on_client_disconnect(self._on_disconnect)
         self.poller = threading.Thread(target=self._poll_loop, name="studio-poll", daemon=True)
         self.poller.start()
 
-    # ----------------------------------------------------------------- GUI
-    def _build_gui(self) -> None:
-        gui = self.server.gui
-        try:
-            gui.configure_theme(control_width="large", show_share_button=False)
-        except TypeError:
-            gui.configure_theme(control_width="large")
-        self.md_title = gui.add_markdown("**Brush Studio**")
-        self.md_summary = gui.add_markdown("")
-        self.bg_view = gui.add_button_group("show", ("design", "run"))
-        self.bg_view.on_click(lambda e: self.show_view(e.target.value))
-        tabs = gui.add_tab_group()
-        self.tab_design = tabs.add_tab("Design")
-        self.tab_run = tabs.add_tab("Run")
-        self.tab_results = tabs.add_tab("Results")
-        self.tab_studies = tabs.add_tab("Studies")
-        self._build_design_gui(gui)
-        self._build_run_gui(gui)
-        self._build_results_gui(gui)
-        self._build_studies_gui(gui)
+    def __getattr__(self, name):
+        # (a shared session's attributes and methods, as before sessions: app.edit(...))
+        shared = self.__dict__.get("shared")
+        if shared is None:
+            raise AttributeError(name)
+        return getattr(shared, name)
 
+    # ----------------------------------------------------------------- sessions
     def _on_connect(self, client) -> None:
-        """Point a new client's camera at the design."""
+        if self.shared is not None:
+            self.shared._on_connect(client)
+            return
+        path, host = client_request(self.server, client.client_id)
+        scene, note = self.design_for(path)
+        session = Session(client, self.jobs, scene, data_dir=self.data_dir,
+                          client_id=client.client_id, note=note, share=self.share_design,
+                          link_host=host)
+        preset = (path or "").split("?")[0].strip("/").split("/")
+        if len(preset) == 2 and preset[0] == "preset" and preset[1] in session.dd_preset.options:
+            session.dd_preset.value = preset[1]
+        with self.sessions_lock:
+            self.sessions[client.client_id] = session
+        session._on_connect(client)
+
+    def _on_disconnect(self, client) -> None:
+        with self.sessions_lock:
+            session = self.sessions.pop(client.client_id, None)
+        if session is not None:
+            session.close()
+
+    def design_for(self, path: Optional[str]):
+        """The design a tab opened at websocket path ``path`` starts on, and a note:
+        ``/preset/NAME`` (a shipped preset), ``/design/ID`` (a design shared with
+        :meth:`share_design`), else the studio's default."""
+        import engine
+
+        parts = [p for p in (path or "").split("?")[0].split("/") if p]
         try:
-            b = uv.design_bristles(self.scene) if uv.n_design_segments(self.scene) < 200_000 \
-                else None
-            if b is not None and len(b.positions):
-                lo, hi = b.positions.min(0), b.positions.max(0)
-                c = 0.5 * (lo + hi) * uv.VIEW_SCALE
-                size = max(float(np.max(hi - lo)) * uv.VIEW_SCALE, 20.0)
-            else:
-                c, size = np.zeros(3), 50.0
-            client.camera.up_direction = (0.0, 0.0, 1.0)
-            # viser moves the look-at point along with the position: set it last
-            client.camera.position = tuple(float(x) for x in
-                                           c + np.array([1.2, -1.6, 0.9]) * size * 1.2)
-            client.camera.look_at = tuple(float(x) for x in c)
-        except Exception:
-            pass
+            if len(parts) == 2 and parts[0] == "preset" and parts[1] in preset_names():
+                return load_preset_or_file(parts[1]), f"opened on preset {parts[1]!r} (link)"
+            if len(parts) == 2 and parts[0] == "design":
+                stored = self.design_path(parts[1])
+                if stored is not None and stored.exists():
+                    return (engine.parse_scene(stored.read_text()),
+                            f"opened on shared design {parts[1]!r} (link)")
+                return self.default_scene, f"no shared design {parts[1]!r}: the default"
+        except engine.SceneError as exc:
+            return self.default_scene, f"link refused: {exc}"
+        return self.default_scene, ""
+
+    def design_path(self, design_id: str) -> Optional[Path]:
+        if self.data_dir is None or not design_id.isalnum():
+            return None
+        return self.data_dir / "designs" / f"{design_id}.json"
+
+    def share_design(self, text: str) -> Optional[str]:
+        """Store a design (scene JSON) under a content id; returns the id (None without a
+        data folder)."""
+        import hashlib
+
+        design_id = hashlib.sha256(text.encode()).hexdigest()[:12]
+        path = self.design_path(design_id)
+        if path is None:
+            return None
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        return design_id
+
+    def session(self, client: Optional[int] = None) -> Optional[Session]:
+        """The session of ``client`` (None: the shared one, else the newest tab's)."""
+        if self.shared is not None:
+            return self.shared
+        with self.sessions_lock:
+            if client is not None:
+                return self.sessions.get(int(client))
+            return self.sessions[max(self.sessions)] if self.sessions else None
 
     # ----------------------------------------------------------------- polling
     def _poll_loop(self) -> None:
-        last = last_studies = time.monotonic()
         while not self._stop.wait(1.0 / STREAM_HZ):
             now = time.monotonic()
-            try:
-                if now - last >= POLL_S:
-                    last = now
-                    self._poll_jobs()
-                if self.studies is not None and now - last_studies >= STUDIES_POLL_S:
-                    last_studies = now
-                    self.studies.poll()
-                self._stream_live()
-                self._advance_play(now)
-            except Exception as exc:  # never let the poller die
-                print(f"studio: poll error: {type(exc).__name__}: {exc}")
-
+            with self.sessions_lock:
+                sessions = [self.shared] if self.shared is not None else \
+                    list(self.sessions.values())
+            for s in sessions:
+                try:
+                    s.poll(now)
+                except Exception as exc:  # never let the poller die
+                    print(f"studio: poll error: {type(exc).__name__}: {exc}")
 
     # ----------------------------------------------------------------- state
-    def state(self) -> dict:
-        """What the studio shows (for scripts and tests)."""
-        with self.lock:
-            bodies = {}
-            for name, h in self.view.bodies.items():
-                bodies[name] = {"position_mm": [float(c) for c in h.position],
-                                "wxyz": [float(c) for c in h.wxyz]}
-            return {
-                "mode": self.mode,
-                "scene_name": self.scene.get("name"),
-                "n_segments": int(self.view.n_instances if self.view.n_instances > 0 else 0),
-                "n_bristles": sum(int(b["rows"]) * int(b["columns"])
-                                  for b in self.scene.get("brushes") or []),
-                "bodies": bodies,
-                "frame": int(self.frame_index),
-                "n_frames": int(self.playback.n_frames) if self.playback else 0,
-                "playback_job": self.playback_job,
-                "active_job": self.active_job,
-                "errors": {k: list(v) for k, v in self.errors.items()},
-                "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
-                              "bristles": len(o.items), "message": str(o)}
-                             for o in self.overlaps],
-                "studies": self.studies.state() if self.studies is not None else None,
-                "scene": self.scene,
-            }
+    def state(self, client: Optional[int] = None) -> dict:
+        """What a session shows (for scripts and tests): ``client``'s, or the newest tab's;
+        ``sessions`` lists every open one."""
+        s = self.session(client)
+        out = s.state() if s is not None else {"mode": None, "scene_name": None,
+                                               "client": None}
+        with self.sessions_lock:
+            out["sessions"] = [{"client": c, "scene_name": x.scene.get("name"),
+                                "mode": x.mode} for c, x in sorted(self.sessions.items())]
+        return out
+
+    def load_preset(self, name: str) -> None:
+        s = self.session()
+        if s is not None:
+            s.load_preset(name)
 
     def close(self) -> None:
         self._stop.set()
         self.poller.join(timeout=2.0)
-        for r in (self.playback, self.live):
-            if r is not None:
-                r.close()
+        for s in ([self.shared] if self.shared else []) + list(self.sessions.values()):
+            s.close()
+
+
+def client_request(server, client_id: int) -> tuple[Optional[str], Optional[str]]:
+    """The path (``/preset/NAME``...) and Host header of the websocket request a client
+    connected with. viser 1.1 has no public API for them: read from its websocket server's
+    live connections ((None, None) when that changes: every tab then opens on the default)."""
+    try:
+        request = server._websock_server._live_connections[client_id].request
+        return request.path, request.headers.get("Host")
+    except Exception:
+        return None, None
 
 
 # =========================================================================== CLI
@@ -212,7 +238,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
               file=sys.stderr)
         return EXIT_FAILED
     server = viser.ViserServer(host=host, port=port, verbose=False)
-    studio = Studio(server, jobs, scene, data_dir=Path(data_dir))
+    studio = Studio(server, jobs, scene, data_dir=Path(data_dir), per_client=True)
     api = None
     if api_port is None:
         api_port = port + 1

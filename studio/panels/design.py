@@ -34,6 +34,8 @@ class DesignPanel:
                 self.up_json.on_upload(self._on_upload_json)
                 self.bt_download_json = gui.add_button("Download design as JSON")
                 self.bt_download_json.on_click(self._on_download_json)
+                self.bt_share = gui.add_button("Share this design (link)")
+                self.bt_share.on_click(self._on_share)
                 self.md_preset = gui.add_markdown("", visible=False)
             self.tx_name = gui.add_text("design name", self.scene.get("name", "scene"))
             self.tx_name.on_update(self._on_name)
@@ -157,7 +159,7 @@ class DesignPanel:
             self.set_mode("design", redraw=False)
             self.redraw_design()
             self.refresh_fields()
-        for client in self.server.get_clients().values():  # a new design: aim at it
+        for client in self._clients():  # a new design: aim at it
             self._on_connect(client)
 
     def _show_errors(self, msgs: dict[str, list[str]]) -> None:
@@ -480,6 +482,20 @@ class DesignPanel:
         import engine
 
         return engine.parse_scene(self.scene).to_json(indent=2) + "\n"
+
+    def _on_share(self, event) -> None:
+        """Store the design and show a link that opens it in a new session (the receiver
+        gets a copy: nobody else's design changes)."""
+        share = getattr(self, "share", None)
+        design_id = share(self.design_json()) if share is not None else None
+        if design_id is None:
+            self._set_note(self.md_preset, "sharing needs the studio's data folder")
+            return
+        self.shared_design_id = design_id
+        host = getattr(self, "link_host", None) or "127.0.0.1"
+        url = f"http://{host}/?websocket=ws://{host}/design/{design_id}"
+        self.md_preset.content = f"Link to this design: [{_md_escape(url)}]({url})"
+        self.md_preset.visible = True
 
     def _on_download_json(self, event) -> None:
         if event.client is None:
