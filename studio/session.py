@@ -143,6 +143,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "frame": int(self.frame_index),
                 "n_frames": int(self.playback.n_frames) if self.playback else 0,
                 "playback_job": self.playback_job,
+                "plots": list(self.figures) if self.playback is not None else [],
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
                 "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,

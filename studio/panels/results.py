@@ -110,6 +110,35 @@ class ResultFrames:
             pass
 
 
+FORCE_COLORS = ("#1f77b4", "#2ca02c", "#9467bd")  # F_x, F_y, F_z (none is the cursor's)
+CURSOR_COLOR = "#d62728"
+
+
+def press_depth(res: "ResultFrames"):
+    """For a run whose body is pressed kinematically into the brush: (body name, depth per
+    frame in m), the body's displacement from its first recorded position along its overall
+    direction of travel; None when no kinematic body moves."""
+    try:
+        scene = res.res.json_attr("scene") or {}
+    except Exception:
+        scene = {}
+    motions = {b.get("name"): (b.get("motion") or {}).get("type")
+               for b in scene.get("bodies") or []}
+    channels = set(res.res.channels())
+    for name in res.body_names:
+        c = f"bodies/{name}/position"
+        if motions.get(name) != "kinematic" or c not in channels or res.n_frames < 2:
+            continue
+        x = np.asarray(res.res.series(c), float)
+        d = x - x[0]
+        far = int(np.argmax(np.linalg.norm(d, axis=1)))
+        span = float(np.linalg.norm(d[far]))
+        if span <= 0:
+            continue
+        return name, d @ (d[far] / span)
+    return None
+
+
 class ResultsPanel:
     """Results tab of the studio (mixin)."""
 
@@ -248,15 +277,37 @@ class ResultsPanel:
         t = res.time
         channels = set(res.res.channels())
         figs = {}
+        self.cursor_x: dict[str, np.ndarray] = {}  # figure -> x of each frame (else time)
+        forces = {}
         f = go.Figure()
         for brush in res.brush_names:
             c = f"brushes/{brush}/root_force"
             if c in channels:
                 F = np.asarray(res.res.series(c))
-                f.add_scatter(x=t, y=F[:, 2], name=f"{brush} F_z", mode="lines")
-                f.add_scatter(x=t, y=np.linalg.norm(F, axis=1), name=f"{brush} |F|",
-                              mode="lines")
+                forces[brush] = F
+                for k, axis in enumerate("xyz"):
+                    f.add_scatter(x=t, y=F[:, k], name=f"{brush} F_{axis}", mode="lines",
+                                  line=dict(color=FORCE_COLORS[k]))
+        for name in res.body_names:
+            c = f"bodies/{name}/contact_force"
+            if c in channels:
+                F = np.asarray(res.res.series(c))
+                for k, axis in enumerate("xyz"):
+                    f.add_scatter(x=t, y=F[:, k], name=f"{name} contact F_{axis}",
+                                  mode="lines", line=dict(color=FORCE_COLORS[k], dash="dot"))
         figs["root force [N]"] = f
+        press = press_depth(res)
+        if press is not None and forces:
+            body, depth = press
+            f = go.Figure()
+            for brush, F in forces.items():
+                for k, axis in enumerate("xyz"):
+                    f.add_scatter(x=depth * 1e3, y=F[:, k], name=f"{brush} F_{axis}",
+                                  mode="lines", line=dict(color=FORCE_COLORS[k]))
+            title = f"root force [N] against depth of {body} [mm]"
+            f.update_layout(xaxis_title=f"depth of {body} [mm]")
+            figs[title] = f
+            self.cursor_x[title] = depth * 1e3
         f = go.Figure()
         for name in res.body_names:
             c = f"bodies/{name}/angular_velocity"
@@ -275,8 +326,12 @@ class ResultsPanel:
         for title, fig in figs.items():
             fig.update_layout(title=dict(text=title, font=dict(size=13)),
                               margin=dict(l=40, r=10, t=30, b=30), height=260,
-                              xaxis_title="time [s]", legend=dict(font=dict(size=9)))
-            fig.add_vline(x=float(t[0]) if len(t) else 0.0, line_color="red", line_width=1)
+                              legend=dict(font=dict(size=9)))
+            if title not in self.cursor_x:
+                fig.update_layout(xaxis_title="time [s]")
+            x0 = self.cursor_x[title][0] if title in self.cursor_x and len(t) else \
+                (float(t[0]) if len(t) else 0.0)
+            fig.add_vline(x=float(x0), line_color=CURSOR_COLOR, line_width=1)
             self.figures[title] = fig
             if title in self.plots:
                 self.plots[title].figure = fig
@@ -285,9 +340,14 @@ class ResultsPanel:
                     self.plots[title] = gui.add_plotly(fig, aspect=1.6)
 
     def _move_cursor(self, t: float) -> None:
+        times = self.playback.time if self.playback is not None else None
         for title, fig in self.figures.items():
+            x = t
+            xs = getattr(self, "cursor_x", {}).get(title)
+            if xs is not None and times is not None and len(times):
+                x = float(np.interp(t, times, xs))
             fig.layout.shapes = ()
-            fig.add_vline(x=t, line_color="red", line_width=1)
+            fig.add_vline(x=x, line_color=CURSOR_COLOR, line_width=1)
             self.plots[title].figure = fig
 
     def _on_download_h5(self, event) -> None:

@@ -21,6 +21,8 @@ def test_e2e_playback_survives_a_design_edit(studio, page, shot, tmp_path, tiny_
                            timeout=400, what="a finished run in playback")
     n = st["n_frames"]
     wait_text(page, "View: run")
+    # the kinematic press gets its force against depth plot (issue 14, item 9)
+    assert "root force [N] against depth of box [mm]" in st["plots"]
     # the defect: any design edit used to leave the slider and play moving nothing
     click(page, "Design", role="tab")
     st = set_field(page, studio, "rows", "1", lambda s: s["scene"]["brushes"][0]["rows"] == 1)
@@ -38,6 +40,9 @@ def test_e2e_playback_survives_a_design_edit(studio, page, shot, tmp_path, tiny_
     assert z_design - st["bodies"]["box"]["position_mm"][2] == pytest.approx(1.0, abs=0.05)
     wait_text(page, "View: run")
     shot(page, "playback-after-edit")
+    page.get_by_text("root force [N] against depth of box [mm]").first.evaluate(
+        "e => e.scrollIntoView()")
+    shot(page, "force-against-depth")
     # one click back to the design, which kept the edit
     click(page, "design")
     st = studio.wait_state(lambda s: s["mode"] == "design", what="design view")
