@@ -4,8 +4,9 @@ A scene whose body starts inside the brush (a box lowered too far, an uploaded m
 the gap, bristles lengthened under a wedge), whose bristles cross, or whose bodies
 interpenetrate, would run a few hundred steps of meaningless contact forces and then stop with
 an instability that points at the timestep. ``find_overlaps`` names such starts instead: which
-body, which bristles, how deep. ``engine.build`` refuses body overlaps and warns about
-bristle-bristle ones; the studio calls the same function on its design view before Start.
+body, which bristles, how deep. ``engine.build`` warns about each (``System.warnings``, which
+``validate`` prints); the studio calls the same function on its design view and refuses to
+start a design whose body starts inside the brush or inside another body.
 
 Pure numpy (no numba, no trimesh): the studio imports it for every edit.
 
@@ -325,13 +326,12 @@ def _surface_points(body: BodyShape) -> np.ndarray:
 # --------------------------------------------------------------------------- build's use
 def check_build(scene, x, radius, bonds, node_bristle, bristle_brush, brushes, body_vertices,
                 body_triangles, body_closed, body_collide, warnings: list) -> list[Overlap]:
-    """``engine.build``'s call: refuse a scene whose bodies start inside bristles or inside
-    one another (a :class:`~engine.errors.SceneError` on ``bodies.<k>.pose.position``
-    naming the bristles and the depth), and add a warning for bristles that start crossed
-    (the contact then pushes them apart in the first steps: an impulse, not a failure).
-    ``brushes``: (name, first bristle, mount body index or -1) per brush."""
-    from .errors import FieldProblem, SceneError
-
+    """``engine.build``'s call: one warning per initial overlap, naming the body, the
+    bristles and the depth. A warning, not an error: a start in contact is a legitimate
+    engine input (the verification tests start a tip inside a plate to measure k_n, or a
+    segment deep in a body to watch it pushed out), but in a design it is almost always a
+    mistake, which is why the studio refuses to start such a design and ``validate`` prints
+    the warning. ``brushes``: (name, first bristle, mount body index or -1) per brush."""
     bristle_brush = np.asarray(bristle_brush, np.int64)
     first = np.array([b[1] for b in brushes], np.int64)
     names = [f"bristle {int(i - first[bb])}" for i, bb in enumerate(bristle_brush)]
@@ -341,17 +341,15 @@ def check_build(scene, x, radius, bonds, node_bristle, bristle_brush, brushes, b
                         bool(body_collide[k])) for k in range(len(scene.bodies))]
     found = find_overlaps(x, radius, bonds, node_bristle, names, bristle_brush,
                           [b[0] for b in brushes], bodies, bristle_mount=mount)
-    problems = []
     index = {b.name: k for k, b in enumerate(scene.bodies)}
     for o in found:
         if o.kind == "bristle-bristle":
             warnings.append(f"{o}: the contact pushes them apart in the first steps; "
                             f"increase the pitch or reduce tip_variance")
-            continue
-        k = index[o.body]
-        problems.append(FieldProblem(
-            f"bodies.{k}.pose.position", [float(c) for c in scene.bodies[k].pose.position],
-            f"{o}; move the body (or the brush base) apart, or shorten the bristles"))
-    if problems:
-        raise SceneError(problems)
+        else:
+            k = index[o.body]
+            warnings.append(f"{o} (bodies.{k}.pose.position = "
+                            f"{[float(c) for c in scene.bodies[k].pose.position]}): the first "
+                            f"steps push them apart with forces no design meant; move the "
+                            f"body (or the brush base) apart, or shorten the bristles")
     return found

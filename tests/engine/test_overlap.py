@@ -1,5 +1,5 @@
 """Initial overlap (engine/overlap.py): the geometry against closed forms, and build's
-refusal of a body that starts inside the brush (issue 14, defect 1)."""
+warning for a body that starts inside the brush (issue 14, defect 1)."""
 from __future__ import annotations
 
 import copy
@@ -100,17 +100,14 @@ def _demo_with(demo, **changes):
     # 11.5 sin 30 deg - 0.5 cos 30 deg from the nearer face, plus the tip radius
     (dict(bristle_length=0.045), 11.5 * 0.5 - 0.5 * math.cos(math.pi / 6) + 0.5),
 ])
-def test_build_refuses_a_body_inside_the_brush(demo_scene_dict, changes, depth_mm):
+def test_build_warns_of_a_body_inside_the_brush(demo_scene_dict, changes, depth_mm):
     import engine
 
     scene = engine.parse_scene(_demo_with(demo_scene_dict, **changes))
-    with pytest.raises(engine.SceneError) as info:
-        engine.build(scene)
-    (problem,) = info.value.problems
-    assert problem.field == "bodies.0.pose.position"
-    assert "body 'wedge' starts inside" in problem.allowed and "brush 'brush'" in \
-        problem.allowed
-    got = float(problem.allowed.split("up to ")[1].split(" mm")[0])
+    (warning,) = [w for w in engine.build(scene).warnings if "initial overlap" in w]
+    assert "body 'wedge' starts inside" in warning and "brush 'brush'" in warning
+    assert "bodies.0.pose.position" in warning
+    got = float(warning.split("up to ")[1].split(" mm")[0])
     # 3 % : the sampled capsule (tip radius interpolated along the last segment) and the
     # rounding to 3 significant digits
     assert got == pytest.approx(depth_mm, rel=0.03)
@@ -122,5 +119,5 @@ def test_validate_reports_the_overlap(demo_scene_dict, tmp_path):
                                           shape={"type": "box", "size": [0.02] * 3})))
     out = subprocess.run([sys.executable, "-m", "studio.cli", "validate", str(path)],
                          capture_output=True, text=True, timeout=120)
-    assert out.returncode == 2, out.stdout + out.stderr
-    assert "initial overlap" in out.stdout + out.stderr
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "warning: initial overlap: body 'wedge' starts inside 35 bristles" in out.stdout
