@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import meshes
+from . import meshes, overlap
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
 from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
@@ -561,6 +561,13 @@ def build(scene: Scene) -> System:
     bodies.pos_build[:] = bodies.pos
     bodies.q_build[:] = bodies.q
     bodies.pos0[:] = bodies.pos
+
+    # ------------------------------------------------------------------ initial overlap
+    overlap.check_build(scene, x, rad, np.stack([bi, bj], 1), nbristle, bristle_brush,
+                        [(b.name, b.first_bristle, b.mount) for b in brushes],
+                        [pos[k] + geoms[k].vertices @ _rot(scene.bodies[k].pose.orientation).T
+                         for k in range(K)], [g.triangles for g in geoms],
+                        [bool(g.watertight) for g in geoms], collide, warnings)
 
     # ------------------------------------------------------------------ stages
     bristle_mats = sorted({mat_index[b.material] for b in scene.brushes})

@@ -293,6 +293,11 @@ class Recorder:
         finally:
             self._closed = True
             self._file.close()
+        try:  # the ParaView/VisIt description beside it (docs/results.md); never fatal
+            from .xdmf import write_xdmf
+            write_xdmf(self.path)
+        except Exception:
+            pass
 
     # ---------------------------------------------------------------- context manager
     def __enter__(self) -> "Recorder":

@@ -296,8 +296,9 @@ class View:
                                              bristles.bonds), colors)
 
     # bodies -----------------------------------------------------------------------
-    def set_bodies(self, bodies: Sequence[BodyMesh]) -> None:
-        """Draw these bodies (and remove the others)."""
+    def set_bodies(self, bodies: Sequence[BodyMesh], highlight=()) -> None:
+        """Draw these bodies (and remove the others); those named in ``highlight`` in red
+        (an initial overlap)."""
         names = {b.name for b in bodies}
         for name in list(self.bodies):
             if name not in names:
@@ -318,6 +319,9 @@ class View:
                 self.body_shapes[b.name] = key
             handle.position = tuple(float(c) for c in b.position * VIEW_SCALE)
             handle.wxyz = tuple(float(c) for c in b.wxyz)
+            color = OVERLAP_BODY_COLOR if b.name in highlight else BODY_COLOR
+            if tuple(handle.color) != color:
+                handle.color = color
 
     def set_body_pose(self, name: str, position, wxyz) -> None:
         handle = self.bodies.get(name)
@@ -328,3 +332,81 @@ class View:
     def clear(self) -> None:
         self.set_bristles(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0, 3)))
         self.set_bodies([])
+
+
+# --------------------------------------------------------------------------- initial overlap
+OVERLAP_COLOR = (230, 30, 30)
+OVERLAP_BODY_COLOR = (235, 40, 40)
+MAX_OVERLAP_CHECK_SEGMENTS = 200_000  # above this the design is not checked live (build does)
+
+
+def design_overlaps(scene: dict, bristles: Optional[Bristles] = None,
+                    bodies: Optional[Sequence[BodyMesh]] = None) -> list:
+    """The initial overlaps of a design (``engine.overlap.find_overlaps`` on the rest
+    geometry the view draws): the same check ``engine.build`` makes, named the same way
+    ("bristle 12" of brush 'brush', counted row by row within its brush)."""
+    from engine import overlap
+
+    if n_design_segments(scene) > MAX_OVERLAP_CHECK_SEGMENTS:
+        return []
+    bristles = design_bristles(scene) if bristles is None else bristles
+    bodies = design_bodies(scene) if bodies is None else bodies
+    names, brush_of, mount_of, node_bristle = [], [], [], []
+    body_index = {b["name"]: k for k, b in enumerate(scene.get("bodies") or [])}
+    shown = {b.name: i for i, b in enumerate(bodies)}
+    first = 0
+    brush_names = []
+    for i, br in enumerate(scene.get("brushes") or []):
+        nb = int(br.get("rows", 1)) * int(br.get("columns", 1))
+        n = int(br.get("n_nodes", 8))
+        brush_names.append(br.get("name", f"brush{i}"))
+        mount = br.get("mount")
+        names += [f"bristle {j}" for j in range(nb)]
+        brush_of += [i] * nb
+        m = shown.get(mount, -1) if mount and mount in body_index else -1
+        mount_of += [m] * nb
+        node_bristle.append(np.repeat(np.arange(first, first + nb), n))
+        first += nb
+    closed = {}
+    for b in scene.get("bodies") or []:
+        closed[b["name"]] = b["shape"].get("type") != "mesh"
+    shapes = [overlap.BodyShape(b.name, b.vertices @ quat_to_matrix(b.wxyz).T + b.position,
+                                b.faces, closed.get(b.name, True) or _closed(b.faces),
+                                bool(next((s.get("collide", True) for s in
+                                           scene.get("bodies") or [] if s["name"] == b.name),
+                                          True)))
+              for b in bodies]
+    return overlap.find_overlaps(
+        bristles.positions, bristles.radius, bristles.bonds,
+        np.concatenate(node_bristle) if node_bristle else np.zeros(0, np.int64), names,
+        np.asarray(brush_of, np.int64), brush_names, shapes,
+        bristle_mount=np.asarray(mount_of, np.int64))
+
+
+def _closed(faces: np.ndarray) -> bool:
+    """Every edge shared by exactly two faces (a watertight mesh has an inside)."""
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return bool(len(counts)) and bool(np.all(counts == 2))
+
+
+def overlap_segment_colors(bristles: Bristles, overlaps: Sequence, n_nodes_of) -> Optional[
+        np.ndarray]:
+    """Per-segment colours with the overlapping bristles in red (None: nothing to mark).
+    ``n_nodes_of``: per bristle, the index of its first node (len n_bristles + 1)."""
+    marked = sorted({b for o in overlaps for b in getattr(o, "bristles", [])})
+    if not marked:
+        return None
+    seg_bristle = np.searchsorted(n_nodes_of, bristles.bonds[:, 0], side="right") - 1
+    colors = np.tile(np.asarray(BRISTLE_COLOR, np.uint8), (len(bristles.bonds), 1))
+    colors[np.isin(seg_bristle, marked)] = OVERLAP_COLOR
+    return colors
+
+
+def design_bristle_first(scene: dict) -> np.ndarray:
+    """Per bristle of a design, the index of its first node in ``design_bristles`` (and the
+    node count at the end)."""
+    counts = [np.full(int(b.get("rows", 1)) * int(b.get("columns", 1)), int(b.get("n_nodes", 8)))
+              for b in scene.get("brushes") or []]
+    counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
+    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)

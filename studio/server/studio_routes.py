@@ -18,7 +18,16 @@ def studio_router(studio, viser_port: int):
 
     router = APIRouter(tags=["studio"])
 
-    def open_studio(request_host: str, preset: Optional[str]):
+    def open_studio(request_host: str, preset: Optional[str], design: Optional[str] = None):
+        """Redirect to the studio page, whose websocket URL names the design the new tab's
+        own session opens on (nobody else's design changes)."""
+        host = request_host.split(":")[0] if request_host else "127.0.0.1"
+        page = f"http://{host}:{viser_port}/"
+        if design:
+            if not design.isalnum():
+                raise HTTPException(404, detail=f"no shared design {design!r}")
+            return RedirectResponse(f"{page}?websocket=ws://{host}:{viser_port}/design/{design}",
+                                    status_code=307)
         if preset:
             import engine
 
@@ -29,22 +38,28 @@ def studio_router(studio, viser_port: int):
                 load_preset_or_file(preset)
             except engine.SceneError as exc:
                 raise HTTPException(422, detail=[str(p) for p in exc.problems])
-            studio.load_preset(preset)
-        host = request_host.split(":")[0] if request_host else "127.0.0.1"
-        return RedirectResponse(f"http://{host}:{viser_port}/", status_code=307)
+            if not getattr(studio, "per_client", False):
+                studio.load_preset(preset)  # (one design shared by every tab)
+                return RedirectResponse(page, status_code=307)
+            return RedirectResponse(f"{page}?websocket=ws://{host}:{viser_port}/preset/{preset}",
+                                    status_code=307)
+        return RedirectResponse(page, status_code=307)
 
     @router.get("/studio")
-    def studio_landing(preset: Optional[str] = None, host: Optional[str] = Header(None)):
-        """Open the studio, on ``preset`` (a name from GET /studio/presets) if given."""
-        return open_studio(host or "", preset)
+    def studio_landing(preset: Optional[str] = None, design: Optional[str] = None,
+                       host: Optional[str] = Header(None)):
+        """Open the studio in a new session on ``preset`` (a name from GET
+        /studio/presets) or on a shared ``design`` id, if given."""
+        return open_studio(host or "", preset, design)
 
     @router.get("/studio/presets")
     def studio_presets():
         return {"presets": preset_names()}
 
     @router.get("/studio/state")
-    def studio_state():
-        return studio.state()
+    def studio_state(client: Optional[int] = None):
+        """What a session shows: ``client``'s (ids in ``sessions``), else the newest tab's."""
+        return studio.state(client)
 
     return router
 

@@ -144,18 +144,40 @@ def clean(path: Path) -> None:
 
 
 def open_preset(studio: StudioProcess, name: str, page=None) -> None:
-    """Open the studio on a preset through the landing route (it redirects to the page);
-    with ``page``, wait until the page shows the preset's rows (as a user would before
-    typing: an edit racing the page's update of the same field could be overwritten)."""
+    """Open a preset in the page's own session (each tab has its own design): choose it in
+    the Presets dropdown and press Load preset, as a user would, then wait until the page
+    shows the preset's rows (an edit racing the page's update of the same field could be
+    overwritten). Without ``page``, only check that the landing route ``/studio?preset=``
+    answers with the studio page (opening a new session there)."""
     with urllib.request.urlopen(f"{studio.api}/studio?preset={name}", timeout=20) as r:
         assert r.status == 200
-        assert r.url.rstrip("/") == studio.url.rstrip("/")
-    if page is not None:
-        rows = str(studio.state()["scene"]["brushes"][0]["rows"])
-        deadline = time.monotonic() + 30
-        while page.get_by_label("rows", exact=True).input_value() != rows:
-            assert time.monotonic() < deadline, f"the page never showed {rows} rows"
-            time.sleep(0.2)
+        assert r.url.startswith(studio.url)
+    if page is None:
+        return
+    from studio import presets
+
+    scene = presets.load_preset_or_file(name)
+    rows = str(scene.brushes[0].rows)
+    for attempt in range(3):
+        box = page.get_by_label("preset", exact=True)
+        if box.input_value() != name:
+            box.click(force=True)
+            page.get_by_role("option", name=name, exact=True).click(force=True,
+                                                                     timeout=10_000)
+            page.wait_for_timeout(300)
+        click(page, "Load preset")
+        try:
+            studio.wait_state(lambda s: s["scene_name"] == scene.name and
+                              str(s["scene"]["brushes"][0]["rows"]) == rows, timeout=10,
+                              what=f"preset {name} loaded")
+            break
+        except AssertionError:
+            if attempt == 2:
+                raise
+    deadline = time.monotonic() + 30
+    while page.get_by_label("rows", exact=True).input_value() != rows:
+        assert time.monotonic() < deadline, f"the page never showed {rows} rows"
+        time.sleep(0.2)
 
 
 def wait_text(page, text: str, timeout: float = 30.0) -> None:

@@ -40,8 +40,11 @@ def test_e2e_url_opens_a_preset(studio, page, shot):
     expected = presets.load_preset(name) if name != "demo" else None
     page.goto(f"{studio.api}/studio?preset={name}")  # the landing route redirects
     page.get_by_label("rows", exact=True).wait_for(timeout=30_000)
-    assert page.url.rstrip("/") == studio.url.rstrip("/")
-    st = studio.state()
+    # the page's URL names the design its own session opened on (a link to it)
+    assert page.url.startswith(studio.url) and f"preset/{name}" in page.url
+    st = studio.wait_state(lambda s: s["scene_name"] == (expected.name if expected else
+                                                         s["scene_name"]),
+                           what="the new session on the preset")
     if expected is not None:
         assert st["scene_name"] == expected.name
         assert st["scene"]["brushes"][0]["rows"] == expected.brushes[0].rows

@@ -1,0 +1,49 @@
+"""What every panel shares: display constants, number and text formatting for the page."""
+from __future__ import annotations
+
+import math
+
+STREAM_HZ = 20.0          # at most this many live frames per second into the view
+POLL_S = 0.1              # job polling period
+STUDIES_POLL_S = 0.5      # the Studies tab's polling period
+PLOT_CURSOR_S = 0.25      # plot cursor updates at most this often while playing
+MAX_VIEW_SEGMENTS = 2_000_000  # above this the view draws every bristle as one segment
+SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x")
+COLOR_MODES = ("bending moment", "deflection", "none")
+
+
+def _fmt_s(s) -> str:
+    if s is None or not isinstance(s, (int, float)) or not math.isfinite(s):
+        return "?"
+    if s < 1:
+        return f"{s * 1e3:.0f} ms"
+    if s < 120:
+        return f"{s:.1f} s"
+    return f"{int(s // 60)} min {s % 60:02.0f} s"
+
+
+def _fmt_rate(x) -> str:
+    if x is None or not isinstance(x, (int, float)) or not math.isfinite(x):
+        return "?"
+    for div, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if abs(x) >= div:
+            return f"{x / div:.3g}{suffix}"
+    return f"{x:.3g}"
+
+
+def _fmt_value(value) -> str:
+    if isinstance(value, (tuple, list)):
+        return "(" + ", ".join(_fmt_value(c) for c in value) + ")"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def _md_escape(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def _safe_name(name: str) -> str:
+    keep = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
+    return keep or "scene"
+

@@ -1,0 +1,161 @@
+"""One design session: the studio as one browser tab sees it.
+
+Each connected client gets its own :class:`Session` (issue 14, defect 3): its own design,
+selection, field errors, playback and live view, drawn with the client's own GUI and scene
+handles (``client.gui``, ``client.scene``), so an edit, a preset load or a scrub in one tab
+changes nothing in another. What is shared lives in :class:`studio.app.Studio`: the job pool
+(runs and studies, listed in every session's Runs and Studies tabs), the poller, the grid.
+
+A session is the four panels of ``studio.panels`` (design, run, results, studies) mixed into
+one object over one ``target``: a viser ``ClientHandle`` (one tab), or the ``ViserServer``
+itself (every tab: the studio's tests and scripts that drive one shared session).
+"""
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from . import ui_scene as us
+from . import ui_view as uv
+from .panels.common import POLL_S, STUDIES_POLL_S
+from .panels.design import DesignPanel
+from .panels.results import ResultFrames, ResultsPanel
+from .panels.run import RunPanel
+from .panels.studies import StudiesPanel
+
+
+class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
+    """One tab's studio. ``target``: a viser ClientHandle (or the ViserServer: shared by every
+    tab); ``jobs``: the shared ``studio.jobs.JobManager`` (or None: designing only);
+    ``scene``: the design it opens on."""
+
+    def __init__(self, target, jobs, scene, data_dir: Optional[Path] = None,
+                 client_id: Optional[int] = None, note: str = "", share=None,
+                 link_host: Optional[str] = None):
+        self.server = target          # (named so for the panels: where this session draws)
+        self.share = share            # design JSON -> stored design id (Studio.share_design)
+        self.link_host = link_host    # host:port the tab reached the studio at (for links)
+        self.shared_design_id: Optional[str] = None
+        self.client_id = client_id
+        self.jobs = jobs
+        self.data_dir = Path(data_dir) if data_dir is not None else None
+        self.lock = threading.RLock()
+        self.scene: dict = us.scene_dict(scene)
+        self.sel = us.Selection()
+        self.errors: dict[str, list[str]] = {}
+        self.mode = "design"          # design | live | playback
+        self.active_job: Optional[str] = None    # the job streamed live
+        self.my_jobs: list[str] = []
+        self.playback: Optional[ResultFrames] = None
+        self.playback_job: Optional[str] = None
+        self.live: Optional[ResultFrames] = None
+        self.frame_index = 0
+        self.play_clock = None
+        self.last_stream = 0.0
+        self.last_cursor = 0.0
+        self.n_segments_drawn = 0
+        self.overlaps: list = []    # initial overlaps of the design (engine.overlap)
+        self._runs_md = ""
+        self._last_poll = self._last_studies = 0.0
+        self.view = uv.View(target)
+        self._build_gui()
+        self.gizmo = None
+        self.redraw_design()
+        self.refresh_fields()
+        if note:
+            self._set_note(self.md_preset, note)
+
+    def _clients(self) -> list:
+        """The clients this session draws for (one, or every tab for a shared session)."""
+        if hasattr(self.server, "get_clients"):
+            return list(self.server.get_clients().values())
+        return [self.server]
+
+    # ----------------------------------------------------------------- GUI
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        who = f" · session {self.client_id}" if self.client_id is not None else ""
+        self.md_title = gui.add_markdown(f"**Brush Studio**{who}")
+        self.md_summary = gui.add_markdown("")
+        self.bg_view = gui.add_button_group("show", ("design", "run"))
+        self.bg_view.on_click(lambda e: self.show_view(e.target.value))
+        tabs = gui.add_tab_group()
+        self.tab_design = tabs.add_tab("Design")
+        self.tab_run = tabs.add_tab("Run")
+        self.tab_results = tabs.add_tab("Results")
+        self.tab_studies = tabs.add_tab("Studies")
+        self._build_design_gui(gui)
+        self._build_run_gui(gui)
+        self._build_results_gui(gui)
+        self._build_studies_gui(gui)
+
+    def _on_connect(self, client) -> None:
+        """Point a client's camera at the design."""
+        try:
+            b = uv.design_bristles(self.scene) if uv.n_design_segments(self.scene) < 200_000 \
+                else None
+            if b is not None and len(b.positions):
+                lo, hi = b.positions.min(0), b.positions.max(0)
+                c = 0.5 * (lo + hi) * uv.VIEW_SCALE
+                size = max(float(np.max(hi - lo)) * uv.VIEW_SCALE, 20.0)
+            else:
+                c, size = np.zeros(3), 50.0
+            client.camera.up_direction = (0.0, 0.0, 1.0)
+            # viser moves the look-at point along with the position: set it last
+            client.camera.position = tuple(float(x) for x in
+                                           c + np.array([1.2, -1.6, 0.9]) * size * 1.2)
+            client.camera.look_at = tuple(float(x) for x in c)
+        except Exception:
+            pass
+
+    # ----------------------------------------------------------------- polling
+    def poll(self, now: float) -> None:
+        """One tick of the shared poller for this session: its runs, its studies tab, its
+        live stream and its playback clock."""
+        if now - self._last_poll >= POLL_S:
+            self._last_poll = now
+            self._poll_jobs()
+        if self.studies is not None and now - self._last_studies >= STUDIES_POLL_S:
+            self._last_studies = now
+            self.studies.poll()
+        self._stream_live()
+        self._advance_play(now)
+
+    # ----------------------------------------------------------------- state
+    def state(self) -> dict:
+        """What the studio shows (for scripts and tests)."""
+        with self.lock:
+            bodies = {}
+            for name, h in self.view.bodies.items():
+                bodies[name] = {"position_mm": [float(c) for c in h.position],
+                                "wxyz": [float(c) for c in h.wxyz]}
+            return {
+                "client": self.client_id,
+                "mode": self.mode,
+                "scene_name": self.scene.get("name"),
+                "n_segments": int(self.view.n_instances if self.view.n_instances > 0 else 0),
+                "n_bristles": sum(int(b["rows"]) * int(b["columns"])
+                                  for b in self.scene.get("brushes") or []),
+                "bodies": bodies,
+                "frame": int(self.frame_index),
+                "n_frames": int(self.playback.n_frames) if self.playback else 0,
+                "playback_job": self.playback_job,
+                "plots": list(self.figures) if self.playback is not None else [],
+                "active_job": self.active_job,
+                "errors": {k: list(v) for k, v in self.errors.items()},
+                "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
+                              "bristles": len(o.items), "message": str(o)}
+                             for o in self.overlaps],
+                "studies": self.studies.state() if self.studies is not None else None,
+                "scene": self.scene,
+            }
+
+    def close(self) -> None:
+        with self.lock:
+            for r in (self.playback, self.live):
+                if r is not None:
+                    r.close()
+            self.playback = self.live = None
