@@ -285,11 +285,9 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     segment's closest point to a mesh vertex or edge. Checked against central finite
     differences of s itself (numpy, independent of the kernel), on the segment's nodes and
     the feature's vertices, and the body's torque as the sum of r x F. Bug caught: a wrong
-    sign or index in the differentiated closest-point conditions (which left a free box's
-    edge gaining +0.55 % energy on a tapered brush)."""
-    from engine.body_contacts import _mesh_fade_forces
+    sign or index in the differentiated closest-point conditions."""
+    from engine.body_contacts import _edge_fade_forces, _mesh_fade_forces
 
-    rng = np.random.default_rng(7)
     l0, l1 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.2, 0.1])
     A, B = np.array([0.4, -0.5, 0.3]), np.array([0.6, 0.7, 0.2])
     g = 0.37
@@ -305,7 +303,9 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     else:
         s, t = _closest_s_edge(l0, l1, A, B)
         assert 0 < s < 1 and 0 < t < 1
-        _mesh_fade_forces(l0, l1, s, 1.0 - t, t, 0.0, A, B, B + rng.normal(size=3), g, out)
+        # the edge's term itself (``_mesh_fade_forces`` calls it only where
+        # EDGE_FADE_GRADIENT is on: see there)
+        _edge_fade_forces(l0, l1, s, A, B, t, g, out)
 
         def s_of(p):
             return _closest_s_edge(*p)[0]
