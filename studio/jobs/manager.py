@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import sqlite3
 import sys
 import threading
 import time
@@ -21,7 +23,12 @@ from typing import Optional, Union
 from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
-from .store import FINAL_STATUSES, JobInfo, JobStore, _finite, jsonable
+from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
+                    storage_reason)
+
+#: below this much free space in the data folder, submits are refused (507) and health says
+#: ``degraded``: a run's files and the job database need room to record even a failure
+DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
 from .worker import WorkerHandle, cpu_count, describe_exit
 
 
@@ -35,7 +42,8 @@ class JobManager:
 
     def __init__(self, data_dir: Union[str, Path], workers: Optional[int] = None, *,
                  cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES,
-                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0):
+                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0,
+                 min_free_bytes: int = DEFAULT_MIN_FREE_BYTES):
         import multiprocessing as mp
 
         self.data_dir = Path(data_dir).resolve()
@@ -58,11 +66,17 @@ class JobManager:
         self.scheduler = scheduler  # study jobs' Dask scheduler (None: one local worker)
         self.study_cancel_grace_s = float(study_cancel_grace_s)
 
+        self.min_free_bytes = int(min_free_bytes)
+        # storage trouble seen last (None: the last write succeeded), and the final states of
+        # jobs that could not be written yet (retried by the monitor until they are)
+        self._storage_problem: Optional[str] = None
+        self._pending_final: dict[str, dict] = {}
+        self._monitor_problem: Optional[str] = None
+
         self._lock_file = self._take_folder_lock()
         self._store = JobStore(self.data_dir, self.runs_dir)
         # the database connection and the worker table share one lock
-        self._lock, self._changed, self._db = (self._store.lock, self._store.changed,
-                                               self._store.db)
+        self._lock, self._changed = self._store.lock, self._store.changed
         self._meshes = MeshStore(self.meshes_dir, self._store, self.max_triangles)
 
         self._ctx = mp.get_context("spawn")
@@ -75,6 +89,10 @@ class JobManager:
         self._monitor = threading.Thread(target=self._monitor_loop, name="job-monitor",
                                          daemon=True)
         self._monitor.start()
+
+    @property
+    def _db(self):
+        return self._store.db
 
     # ------------------------------------------------------------------ public API
     def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
@@ -97,16 +115,10 @@ class JobManager:
         name = str(name).strip()[:200]
         scene_json = scene.to_json()
         job_id = uuid.uuid4().hex[:12]
-        run_dir = self.runs_dir / job_id
-        run_dir.mkdir(parents=True, exist_ok=False)
-        (run_dir / "scene.json").write_text(scene_json + "\n")
-        with self._lock:
-            self._db.execute(
-                "INSERT INTO jobs (id, name, status, created, until, scene) "
-                "VALUES (?, ?, 'queued', ?, ?, ?)",
-                (job_id, name, time.time(), _finite(scene.run.duration), scene_json))
-            self._changed.notify_all()
-        self._wake()
+        self._create_job(job_id, {"scene.json": scene_json + "\n"},
+                         "INSERT INTO jobs (id, name, status, created, until, scene) "
+                         "VALUES (?, ?, 'queued', ?, ?, ?)",
+                         (job_id, name, time.time(), _finite(scene.run.duration), scene_json))
         return job_id
 
     def submit_study(self, study: str, options: Optional[dict] = None,
@@ -123,20 +135,120 @@ class JobManager:
             name = f"{study} study"
         name = str(name).strip()[:200]
         job_id = uuid.uuid4().hex[:12]
-        run_dir = self.runs_dir / job_id
-        (run_dir / "study").mkdir(parents=True, exist_ok=False)
         spec = {"study": study, "options": jsonable(options or {}), "argv": argv,
                 "resolved": resolved}
-        (run_dir / "study_job.json").write_text(json.dumps(spec, indent=1) + "\n")
-        with self._lock:
-            self._db.execute(
-                "INSERT INTO jobs (id, name, status, created, scene, kind, study, options, "
-                "argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?, ?)",
-                (job_id, name, time.time(), study, json.dumps(spec["options"]),
-                 json.dumps(argv), json.dumps(resolved)))
-            self._changed.notify_all()
-        self._wake()
+        self._create_job(job_id, {"study_job.json": json.dumps(spec, indent=1) + "\n",
+                                  "study/": None},
+                         "INSERT INTO jobs (id, name, status, created, scene, kind, study, "
+                         "options, argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, "
+                         "?, ?, ?)",
+                         (job_id, name, time.time(), study, json.dumps(spec["options"]),
+                          json.dumps(argv), json.dumps(resolved)))
         return job_id
+
+    def _create_job(self, job_id: str, files: dict, sql: str, args: tuple) -> None:
+        """Write a new job's folder (``files``: name -> text, a name ending in ``/`` a
+        folder) and its row. Nothing is left behind when either fails: the folder is removed
+        and :class:`StorageError` says why (a full disk: HTTP 507)."""
+        self.check_free_space()
+        run_dir = self.runs_dir / job_id
+        try:
+            run_dir.mkdir(parents=True, exist_ok=False)
+            for fname, text in files.items():
+                if fname.endswith("/"):
+                    (run_dir / fname).mkdir()
+                else:
+                    (run_dir / fname).write_text(text)
+            with self._lock:
+                self._db.execute(sql, args)
+                self._changed.notify_all()
+        except (OSError, sqlite3.Error) as exc:
+            shutil.rmtree(run_dir, ignore_errors=True)
+            reason = storage_reason(exc)
+            self._storage_failed(reason)
+            raise StorageError(f"the job could not be stored in {self.data_dir}: "
+                               f"{reason}") from exc
+        self._storage_ok()
+        self._wake()
+
+    def check_free_space(self) -> None:
+        """:class:`StorageError` when the data folder has less than ``min_free_bytes``
+        free."""
+        free = self.free_bytes()
+        if free is not None and free < self.min_free_bytes:
+            reason = (f"only {free / 2**20:.1f} MiB free in {self.data_dir} (at least "
+                      f"{self.min_free_bytes / 2**20:.0f} MiB are needed to run jobs)")
+            self._storage_failed(reason)
+            raise StorageError(reason)
+
+    def free_bytes(self) -> Optional[int]:
+        try:
+            return shutil.disk_usage(self.data_dir).free
+        except OSError:
+            return None
+
+    def health(self) -> dict:
+        """``{"status": "ok" | "degraded", "problems": [...]}``: degraded while workers are
+        missing, the monitor thread is down, storage failed last time it was written, or the
+        data folder is short of space."""
+        problems = []
+        with self._lock:
+            alive = sum(1 for w in self._workers if w.process.is_alive())
+            pending = sorted(self._pending_final)
+            storage = self._storage_problem
+            monitor = self._monitor_problem
+        if not self._monitor.is_alive() and not self._closing:
+            problems.append("the job monitor thread has stopped: no job will start")
+        elif monitor:
+            problems.append(f"the job monitor hit an error: {monitor}")
+        if alive < self.n_workers:
+            problems.append(f"{alive} of {self.n_workers} worker process(es) alive")
+        if storage:
+            problems.append(f"storage: {storage}")
+        if pending:
+            problems.append(f"{len(pending)} finished job(s) not yet written to the database "
+                            f"({', '.join(pending[:5])})")
+        free = self.free_bytes()
+        if free is not None and free < self.min_free_bytes and not storage:
+            problems.append(f"storage: only {free / 2**20:.1f} MiB free in {self.data_dir}")
+        return {"status": "degraded" if problems else "ok", "problems": problems,
+                "free_bytes": free}
+
+    def _storage_failed(self, reason: str) -> None:
+        with self._lock:
+            self._storage_problem = reason
+
+    def _storage_ok(self) -> None:
+        with self._lock:
+            self._storage_problem = None
+
+    def _update(self, job_id: str, **values) -> bool:
+        """Write a job's state; on a storage error note it (health) and return False."""
+        try:
+            self._store.update(job_id, **values)
+        except StorageError as exc:
+            self._storage_failed(str(exc))
+            return False
+        if self._storage_problem is not None and not self._pending_final:
+            self._storage_ok()
+        return True
+
+    def _finish(self, job_id: str, **values) -> None:
+        """Write a job's final state; if storage fails, keep it and retry from the monitor
+        until it is written (the job is reported with it meanwhile)."""
+        if not self._update(job_id, **values):
+            with self._lock:
+                self._pending_final[job_id] = values
+
+    def _flush_pending(self) -> None:
+        with self._lock:
+            pending = list(self._pending_final.items())
+        for job_id, values in pending:
+            if self._update(job_id, **values):
+                with self._lock:
+                    self._pending_final.pop(job_id, None)
+        if pending and not self._pending_final:
+            self._storage_ok()
 
     def study_dir(self, job_id: str) -> Path:
         """A study job's output folder (KeyError if unknown or not a study)."""
@@ -158,13 +270,24 @@ class JobManager:
 
     def get(self, job_id: str) -> JobInfo:
         """The job's state; KeyError if there is no such job."""
-        return self._store.get(job_id)
+        return self._overlay(self._store.get(job_id))
 
     def list(self, status: Optional[str] = None, limit: Optional[int] = None,
              kind: Optional[str] = None) -> list[JobInfo]:
         """All jobs (or those with ``status``, of ``kind`` "run" or "study"), newest
         first."""
-        return self._store.list(status, limit, kind)
+        return [self._overlay(i) for i in self._store.list(status, limit, kind)]
+
+    def _overlay(self, info: JobInfo) -> JobInfo:
+        """A job whose final state could not be written yet is shown with it."""
+        with self._lock:
+            values = self._pending_final.get(info.id)
+        if not values:
+            return info
+        import dataclasses
+
+        known = {f.name for f in dataclasses.fields(JobInfo)}
+        return dataclasses.replace(info, **{k: v for k, v in values.items() if k in known})
 
     def cancel(self, job_id: str, wait: float = 1.5) -> JobInfo:
         """Cancel a queued or running job (a finished one is left as it is). A running job's
@@ -174,6 +297,14 @@ class JobManager:
         if info.done:
             return info
         now = time.time()
+        try:
+            return self._cancel(job_id, now, wait)
+        except sqlite3.Error as exc:
+            reason = f"the job database could not be written: {storage_reason(exc)}"
+            self._storage_failed(reason)
+            raise StorageError(reason) from exc
+
+    def _cancel(self, job_id: str, now: float, wait: float) -> JobInfo:
         with self._lock:
             cur = self._db.execute(
                 "UPDATE jobs SET status = 'cancelled', finished = ?, error = ? "
@@ -297,9 +428,11 @@ class JobManager:
                     closing = self._closing
                 if closing:
                     break
-                self._keep_pool()
-                self._dispatch()
-                self._enforce_cancels()
+                # each step on its own: an error in one (a full disk, a worker that cannot
+                # start) is reported in health and retried, and never stops the others
+                for step in (self._flush_pending, self._keep_pool, self._dispatch,
+                             self._enforce_cancels):
+                    self._guarded(step)
                 with self._lock:
                     workers = list(self._workers)
                 waitables = [self._wake_r]
@@ -313,13 +446,28 @@ class JobManager:
                         pass
                 for w in workers:
                     if w.conn in ready:
-                        self._drain(w)
+                        self._guarded(self._drain, w)
                     if w.process.sentinel in ready:
-                        self._on_death(w)
-        except Exception:  # keep the manager usable and say why, rather than die silently
-            traceback.print_exc()
+                        self._guarded(self._on_death, w)
         finally:
             self._shutdown_workers()
+
+    def _guarded(self, step, *args) -> None:
+        """Run one step of the monitor loop; an exception is printed once per kind, shown
+        by :meth:`health` and does not end the loop (a pause keeps it from spinning)."""
+        try:
+            step(*args)
+        except Exception as exc:
+            reason = f"{type(exc).__name__}: {exc}"
+            if self._monitor_problem != reason:
+                traceback.print_exc()
+            with self._lock:
+                self._monitor_problem = reason
+            time.sleep(0.2)
+        else:
+            if self._monitor_problem is not None and step == self._dispatch:
+                with self._lock:
+                    self._monitor_problem = None
 
     def _keep_pool(self) -> None:
         with self._lock:
@@ -327,7 +475,12 @@ class JobManager:
         if missing <= 0 or time.monotonic() < self._respawn_after:
             return
         for _ in range(missing):
-            w = WorkerHandle(self._ctx, self.threads_per_worker)
+            try:
+                w = WorkerHandle(self._ctx, self.threads_per_worker)
+            except OSError as exc:  # no memory, no file descriptors: try again later
+                self._respawn_after = time.monotonic() + 2.0
+                raise RuntimeError(f"a worker process could not be started: "
+                                   f"{storage_reason(exc)}") from exc
             with self._lock:
                 self._workers.append(w)
 
@@ -342,27 +495,39 @@ class JobManager:
                 if row is None:
                     return
                 seq, job_id, scene_json, kind, study, argv, resolved = row
-                cur = self._db.execute(
-                    "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
-                    "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
+                try:
+                    cur = self._db.execute(
+                        "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
+                        "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
+                except sqlite3.Error as exc:  # the job stays queued; tried again next turn
+                    reason = f"the job database could not be written: {storage_reason(exc)}"
+                    self._storage_failed(reason)
+                    raise StorageError(reason) from exc
                 if not cur.rowcount:
                     continue
                 w.job_id, w.seq, w.cancel_at = job_id, seq, None
                 w.grace = self.study_cancel_grace_s if kind == "study" else \
                     self.cancel_grace_s
                 self._changed.notify_all()
-            if kind == "study":
-                out = self.runs_dir / job_id / "study"
-                out.mkdir(parents=True, exist_ok=True)
-                argv = json.loads(argv or "[]") + ["--output", str(out)]
-                argv += ["--scheduler", self.scheduler] if self.scheduler else \
-                    ["--workers", "1"]
-                msg = ("study", seq, job_id, study, self._study_options(job_id, study, resolved),
-                       argv, str(out))
-            else:
-                h5 = self.runs_dir / job_id / "result.h5"
-                h5.parent.mkdir(parents=True, exist_ok=True)
-                msg = ("run", seq, job_id, scene_json, str(h5))
+            try:
+                if kind == "study":
+                    out = self.runs_dir / job_id / "study"
+                    out.mkdir(parents=True, exist_ok=True)
+                    argv = json.loads(argv or "[]") + ["--output", str(out)]
+                    argv += ["--scheduler", self.scheduler] if self.scheduler else \
+                        ["--workers", "1"]
+                    msg = ("study", seq, job_id, study,
+                           self._study_options(job_id, study, resolved), argv, str(out))
+                else:
+                    h5 = self.runs_dir / job_id / "result.h5"
+                    h5.parent.mkdir(parents=True, exist_ok=True)
+                    msg = ("run", seq, job_id, scene_json, str(h5))
+            except Exception as exc:  # its folder cannot be written, its options are gone
+                with self._lock:
+                    w.job_id = w.seq = w.cancel_at = None
+                self._finish(job_id, status="failed", finished=time.time(), eta_s=None,
+                             error=f"the job could not be started: {storage_reason(exc)}")
+                continue
             try:
                 w.conn.send(msg)
             except (OSError, ValueError):
@@ -401,14 +566,14 @@ class JobManager:
         if job_id != w.job_id:
             return
         if kind == "built":
-            self._store.update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
+            self._update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
                          until=data["until"], sim_time=data["sim_time"],
                          assembled=data["assembled"], warnings=data["warnings"])
         elif kind == "study_progress":
-            self._store.update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
+            self._update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
                          message=str(data.get("message") or "")[:300])
         elif kind == "progress":
-            self._store.update(job_id, sim_time=data["sim_time"], until=data["until"],
+            self._update(job_id, sim_time=data["sim_time"], until=data["until"],
                          progress=min(max(float(data["progress"]), 0.0), 1.0),
                          steps_per_s=data["steps_per_s"], eta_s=data["eta_s"])
         elif kind == "done":
@@ -428,9 +593,9 @@ class JobManager:
             if summary.get("warnings"):
                 values["warnings"] = list(self.get(job_id).warnings) + [
                     x for x in summary["warnings"] if x not in self.get(job_id).warnings]
-            self._store.update(job_id, **values)
             with self._lock:
                 w.job_id = w.seq = w.cancel_at = None
+            self._finish(job_id, **values)
 
     def _on_death(self, w: WorkerHandle) -> None:
         self._drain(w)  # what it sent before dying
@@ -451,8 +616,7 @@ class JobManager:
                 status, error = "failed", (f"the worker process (pid {w.pid}) died while "
                                            f"running this job ({reason}); the result file "
                                            f"keeps the frames recorded before")
-            self._store.update(job_id, status=status, finished=time.time(), error=error,
-                         eta_s=None)
+            self._finish(job_id, status=status, finished=time.time(), error=error, eta_s=None)
         if not w.ready:  # died while starting: say so, and do not respawn in a tight loop
             self._start_failures += 1
             delay = min(2.0 * 2 ** (self._start_failures - 1), 60.0)
@@ -492,7 +656,7 @@ class JobManager:
             job_id = w.job_id
             w.stop()
             if job_id is not None:
-                self._store.update(job_id, status="cancelled", finished=time.time(),
+                self._finish(job_id, status="cancelled", finished=time.time(),
                              error="interrupted: the job manager was closed while this job "
                                    "ran")
         with self._lock:

@@ -8,11 +8,12 @@ import io
 import json
 import os
 import re
+import sqlite3
 import threading
 import time
 from pathlib import Path
 
-from .store import jsonable
+from .store import StorageError, jsonable, storage_reason
 
 MESH_FORMATS = ("stl", "obj", "ply")
 MESH_PREFIX = "mesh:"
@@ -34,7 +35,7 @@ class MeshStore:
 
     def __init__(self, meshes_dir: Path, store, max_triangles: int = DEFAULT_MAX_TRIANGLES):
         self.meshes_dir = Path(meshes_dir)
-        self._db, self._lock = store.db, store.lock
+        self._store, self._lock = store, store.lock
         self.max_triangles = int(max_triangles)
 
     def add_mesh(self, data: bytes, filename: str) -> dict:
@@ -77,19 +78,24 @@ class MeshStore:
                 "watertight": bool(trimesh.Trimesh(vertices, faces).is_watertight),
                 "bytes": len(data)}
         path = self.meshes_dir / f"{mesh_id}.{fmt}"
-        if not path.exists():
-            tmp = path.with_suffix(f".tmp{os.getpid()}.{threading.get_ident()}")
-            tmp.write_bytes(data)
-            os.replace(tmp, path)
-        with self._lock:
-            self._db.execute("INSERT OR IGNORE INTO meshes (id, filename, format, created, "
-                             "info) VALUES (?, ?, ?, ?, ?)",
-                             (mesh_id, info["filename"], fmt, time.time(), json.dumps(info)))
+        tmp = path.with_suffix(f".tmp{os.getpid()}.{threading.get_ident()}")
+        try:
+            if not path.exists():
+                tmp.write_bytes(data)
+                os.replace(tmp, path)
+            with self._lock:
+                self._store.db.execute(
+                    "INSERT OR IGNORE INTO meshes (id, filename, format, created, info) "
+                    "VALUES (?, ?, ?, ?, ?)",
+                    (mesh_id, info["filename"], fmt, time.time(), json.dumps(info)))
+        except (OSError, sqlite3.Error) as exc:
+            tmp.unlink(missing_ok=True)
+            raise StorageError(f"the mesh could not be stored: {storage_reason(exc)}") from exc
         return info
 
     def list_meshes(self) -> list[dict]:
         with self._lock:
-            rows = self._db.execute("SELECT info FROM meshes ORDER BY created DESC").fetchall()
+            rows = self._store.db.execute("SELECT info FROM meshes ORDER BY created DESC").fetchall()
         return [json.loads(r[0]) for r in rows]
 
     def mesh_path(self, mesh_id: str) -> Path:
@@ -97,7 +103,7 @@ class MeshStore:
         if not isinstance(mesh_id, str) or not _MESH_ID.match(mesh_id):
             raise KeyError(mesh_id)
         with self._lock:
-            row = self._db.execute("SELECT format FROM meshes WHERE id = ?",
+            row = self._store.db.execute("SELECT format FROM meshes WHERE id = ?",
                                    (mesh_id,)).fetchone()
         if row is None:
             raise KeyError(mesh_id)

@@ -24,6 +24,19 @@ FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
 _JOB_ID = re.compile(r"^[0-9a-f]{12}$")
 
 
+class StorageError(RuntimeError):
+    """The job database or a job's folder could not be written (a full disk, a read-only or
+    vanished data folder): the message says what was being written and why it failed."""
+
+
+def storage_reason(exc: BaseException) -> str:
+    """One line for a storage failure: the OS's or SQLite's own words."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f" ({exc.filename})" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    return f"{type(exc).__name__}: {exc}"
+
+
 # ----------------------------------------------------------------------------- job info
 @dataclass
 class JobInfo:
@@ -227,6 +240,8 @@ class JobStore:
         return JobInfo(**d)
 
     def update(self, job_id: str, **values) -> None:
+        """Write ``values`` into the job's row; :class:`StorageError` if the database cannot
+        be written (a full disk), with the database's reason."""
         cols = []
         args = []
         for k, v in values.items():
@@ -237,6 +252,10 @@ class JobStore:
             cols.append(f"{k} = ?")
             args.append(v)
         with self.lock:
-            self.db.execute(f"UPDATE jobs SET {', '.join(cols)} WHERE id = ?",
-                             (*args, job_id))
+            try:
+                self.db.execute(f"UPDATE jobs SET {', '.join(cols)} WHERE id = ?",
+                                (*args, job_id))
+            except sqlite3.Error as exc:
+                raise StorageError(f"the job database could not be written: "
+                                   f"{storage_reason(exc)}") from exc
             self.changed.notify_all()

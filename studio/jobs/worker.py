@@ -47,6 +47,10 @@ def _study_files(folder: Path) -> list[str]:
     return study_files(folder)
 
 
+def _os_reason(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
 def _tail(path: Path, n: int = 12) -> str:
     try:
         lines = path.read_text(errors="replace").splitlines()
@@ -134,6 +138,9 @@ def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) 
         error = str(exc)
     except engine.BrushStudioError as exc:
         error = f"{type(exc).__name__}: {exc}"
+    except OSError as exc:  # the result file cannot be written: a full disk, most often
+        error = (f"storage error: the result file {h5_path} could not be written "
+                 f"({_os_reason(exc)}); the frames written before are kept")
     except Exception as exc:  # report any bug with its traceback; the worker goes on
         error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
     conn.send(("done", job_id, {"status": status, "summary": jsonable(summary),

@@ -76,6 +76,15 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
 
     guarded = [Depends(auth)]
 
+    from fastapi.responses import JSONResponse
+
+    from ..jobs import StorageError
+
+    @app.exception_handler(StorageError)
+    async def storage_error(request, exc: StorageError):
+        # 507 Insufficient Storage: the request was fine, the server's disk was not
+        return JSONResponse(status_code=507, content={"detail": str(exc)})
+
     app.include_router(runs_router(jobs, guarded, allow_files=allow_files))
     app.include_router(studies_router(jobs, guarded))
     app.include_router(library_router(jobs, guarded, max_upload_bytes=max_upload_bytes))
