@@ -153,6 +153,14 @@ def estimate_dt(scene: Scene) -> float:
     return scene.run.dt_safety * 2.0 / math.sqrt(omega2)
 
 
+def _ceil(x: float) -> float:
+    return float(math.ceil(x)) if math.isfinite(x) else math.inf
+
+
+def _floor(x: float) -> float:
+    return float(math.floor(x)) if math.isfinite(x) else math.inf
+
+
 def estimate(scene: Scene, mesh_triangles=None) -> Cost:
     """The cost of ``scene`` (a validated :class:`engine.Scene`), computed in microseconds
     whatever the scene's size. ``mesh_triangles(file) -> int | None`` counts a mesh file's
@@ -163,12 +171,12 @@ def estimate(scene: Scene, mesh_triangles=None) -> Cost:
     n_triangles = None if any(t is None for t in tris) else int(sum(tris))
     dt = estimate_dt(scene)
     duration = float(scene.run.duration)
-    steps = math.ceil(duration / dt) if dt > 0 else math.inf
-    frames = math.floor(duration / scene.run.record_interval) + 1
+    steps = _ceil(duration / dt) if dt > 0 else math.inf
+    frames = _floor(duration / scene.run.record_interval) + 1
     node_bytes = sum(_CHANNEL_NODE_BYTES.get(c, 0) for c in scene.run.channels)
     result_bytes = float(frames) * (n_nodes * node_bytes + 200 * (1 + len(scene.bodies)))
     memory = BYTES_FIXED + n_nodes * BYTES_PER_NODE + (n_triangles or 0) * BYTES_PER_TRIANGLE
     return Cost(n_bristles=n_bristles, n_nodes=n_nodes, n_triangles=n_triangles, dt=dt,
                 dt_given=scene.run.dt is not None, duration=duration, steps=float(steps),
-                frames=float(frames), node_steps=float(n_nodes) * steps,
+                frames=float(frames), node_steps=float(n_nodes) * steps if n_nodes else 0.0,
                 memory_bytes=float(memory), result_bytes=result_bytes)

@@ -399,6 +399,23 @@ def _cmd_validate(args) -> int:
 
     try:
         scene = engine.load_scene(args.scene)
+    except engine.SceneError as exc:
+        _print_scene_error(exc, f"invalid scene {args.scene}")
+        return EXIT_BAD_INPUT
+    # the estimate first (microseconds whatever the size): a scene too large to build here
+    # is refused before any array is allocated
+    cost = engine.estimate(scene)
+    print(f"estimate: {cost.summary()}", flush=True)
+    for name, value, allowed in (("--max-nodes", cost.n_nodes, args.max_nodes),
+                                 ("--max-memory-mb", cost.memory_bytes / 2**20,
+                                  args.max_memory_mb)):
+        if allowed and value > allowed:
+            _err(f"{args.scene}: too large to build here: {value:.4g} against {name} "
+                 f"{allowed:g} (raise {name} to build it anyway, or --estimate-only)")
+            return EXIT_BAD_INPUT
+    if args.estimate_only:
+        return EXIT_OK
+    try:
         system = engine.build(scene)
     except engine.SceneError as exc:
         _print_scene_error(exc, f"invalid scene {args.scene}")
@@ -496,6 +513,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="check a scene without running it")
     v.add_argument("scene", metavar="SCENE.json")
+    v.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
+                   help="refuse to build a scene with more bristle nodes (default 2000000; "
+                        "0: no limit)")
+    v.add_argument("--max-memory-mb", type=float, default=8192.0, metavar="MB",
+                   help="refuse to build a scene estimated to need more memory (default "
+                        "8192; 0: no limit)")
+    v.add_argument("--estimate-only", action="store_true",
+                   help="print the cost estimate and stop (no build)")
     v.set_defaults(func=_cmd_validate)
 
     i = sub.add_parser("info", help="describe a result file")

@@ -22,6 +22,7 @@ from typing import Optional, Union
 
 from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
+from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
 from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
                     storage_reason)
@@ -37,13 +38,16 @@ class JobManager:
 
     ``workers``: pool size (default one per core). ``cancel_grace_s``: how long a worker may
     take to honour a cancel before it is terminated. ``max_triangles``: the largest uploaded
-    mesh accepted by :meth:`add_mesh`.
+    mesh accepted by :meth:`add_mesh`. ``limits``: what one job may cost, how long it may
+    run and how many may wait (:class:`~.limits.Limits`; its defaults when not given).
+    ``min_free_bytes``: below this much free space in the data folder, submits are refused.
     """
 
     def __init__(self, data_dir: Union[str, Path], workers: Optional[int] = None, *,
                  cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES,
                  scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0,
-                 min_free_bytes: int = DEFAULT_MIN_FREE_BYTES):
+                 min_free_bytes: int = DEFAULT_MIN_FREE_BYTES,
+                 limits: Optional[Limits] = None):
         import multiprocessing as mp
 
         self.data_dir = Path(data_dir).resolve()
@@ -67,6 +71,7 @@ class JobManager:
         self.study_cancel_grace_s = float(study_cancel_grace_s)
 
         self.min_free_bytes = int(min_free_bytes)
+        self.limits = limits if limits is not None else Limits()
         # storage trouble seen last (None: the last write succeeded), and the final states of
         # jobs that could not be written yet (retried by the monitor until they are)
         self._storage_problem: Optional[str] = None
@@ -96,18 +101,24 @@ class JobManager:
 
     # ------------------------------------------------------------------ public API
     def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
-               check_build: bool = True) -> str:
+               check_build: bool = False) -> str:
         """Queue a scene (an ``engine.Scene``, a dict or JSON text); returns the job id.
 
-        Raises ``engine.SceneError`` naming every bad field. Mesh shapes may name an uploaded
-        mesh as ``"mesh:<id>"``; with ``allow_files=False`` (the HTTP server) they must, and
-        no other file path is accepted. ``check_build`` also builds the scene here, so that
-        what only the build can see (an unreadable mesh, missing mass properties) is reported
-        now rather than as a failed job.
+        Raises ``engine.SceneError`` naming every bad field, :class:`~.limits.LimitError`
+        when the scene's estimated cost (``engine.estimate``: nodes, steps, frames, memory)
+        is over this manager's :attr:`limits` or the queue is full, and
+        :class:`~.store.StorageError` when it cannot be stored. Mesh shapes may name an
+        uploaded mesh as ``"mesh:<id>"``; with ``allow_files=False`` (the HTTP server) they
+        must, and no other file path is accepted. Nothing is built here (a huge scene would
+        hold this process); what only the build can see fails the job with the reason.
+        ``check_build`` builds it here all the same (small scenes, scripts).
         """
         import engine
 
         scene = self._meshes.resolve_scene(scene, allow_files=allow_files)
+        cost = engine.estimate(scene, mesh_triangles=self._meshes.triangles_of)
+        check_cost(cost, self.limits)
+        self._check_queue()
         if check_build:
             engine.build(scene)
         if name is None or not str(name).strip():
@@ -116,10 +127,23 @@ class JobManager:
         scene_json = scene.to_json()
         job_id = uuid.uuid4().hex[:12]
         self._create_job(job_id, {"scene.json": scene_json + "\n"},
-                         "INSERT INTO jobs (id, name, status, created, until, scene) "
-                         "VALUES (?, ?, 'queued', ?, ?, ?)",
-                         (job_id, name, time.time(), _finite(scene.run.duration), scene_json))
+                         "INSERT INTO jobs (id, name, status, created, until, scene, estimate) "
+                         "VALUES (?, ?, 'queued', ?, ?, ?, ?)",
+                         (job_id, name, time.time(), _finite(scene.run.duration), scene_json,
+                          json.dumps(jsonable(cost.as_dict()))))
         return job_id
+
+    def _check_queue(self) -> None:
+        """:class:`LimitError` (429) when ``limits.max_queued`` jobs already wait."""
+        allowed = self.limits.max_queued
+        if allowed is None:
+            return
+        queued = self._store.counts()["queued"]
+        if queued >= allowed:
+            raise LimitError("max_queued", queued, allowed,
+                             f"{queued} jobs are waiting; this server queues at most {allowed} "
+                             f"(--max-queued): submit again later", 429,
+                             retry_after=30)
 
     def submit_study(self, study: str, options: Optional[dict] = None,
                      name: Optional[str] = None) -> str:
@@ -130,6 +154,12 @@ class JobManager:
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
         typed, argv = make_options(study, options, scheduler=self.scheduler)
+        runs = planned_runs(typed)
+        if self.limits.max_study_runs is not None and runs > self.limits.max_study_runs:
+            raise LimitError("max_study_runs", runs, self.limits.max_study_runs,
+                             f"the study plans up to {runs} runs; this server allows at most "
+                             f"{self.limits.max_study_runs} per study (--max-study-runs)", 422)
+        self._check_queue()
         resolved = options_to_dict(typed)
         if name is None or not str(name).strip():
             name = f"{study} study"
@@ -140,10 +170,11 @@ class JobManager:
         self._create_job(job_id, {"study_job.json": json.dumps(spec, indent=1) + "\n",
                                   "study/": None},
                          "INSERT INTO jobs (id, name, status, created, scene, kind, study, "
-                         "options, argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, "
-                         "?, ?, ?)",
+                         "options, argv, resolved, estimate) VALUES (?, ?, 'queued', ?, '', "
+                         "'study', ?, ?, ?, ?, ?)",
                          (job_id, name, time.time(), study, json.dumps(spec["options"]),
-                          json.dumps(argv), json.dumps(resolved)))
+                          json.dumps(argv), json.dumps(resolved),
+                          json.dumps({"planned_runs": runs})))
         return job_id
 
     def _create_job(self, job_id: str, files: dict, sql: str, args: tuple) -> None:
@@ -506,6 +537,7 @@ class JobManager:
                 if not cur.rowcount:
                     continue
                 w.job_id, w.seq, w.cancel_at = job_id, seq, None
+                w.started_at, w.over_limit = time.monotonic(), None
                 w.grace = self.study_cancel_grace_s if kind == "study" else \
                     self.cancel_grace_s
                 self._changed.notify_all()
@@ -583,6 +615,8 @@ class JobManager:
             if status == "cancelled" and error is None:
                 error = ("interrupted: the job manager was closed" if self._closing
                          else "cancelled")
+            if w.over_limit and status == "cancelled":
+                status, error = "failed", w.over_limit
             values = dict(status=status, finished=data["finished"], summary=summary,
                           stages=summary.get("stages") or {}, error=error, eta_s=0.0
                           if status in ("completed", "stopped") else None)
@@ -609,7 +643,9 @@ class JobManager:
         if job_id is not None:
             cancel_requested = w.cancel_at is not None
             reason = describe_exit(code)
-            if cancel_requested:
+            if w.over_limit:
+                status, error = "failed", w.over_limit
+            elif cancel_requested:
                 status, error = "cancelled", (f"cancelled: the worker process (pid {w.pid}) "
                                               f"did not stop in time and was ended ({reason})")
             else:
@@ -634,7 +670,17 @@ class JobManager:
 
     def _enforce_cancels(self) -> None:
         now = time.monotonic()
+        limit = self.limits.max_job_seconds
         with self._lock:
+            if limit is not None:
+                for w in self._workers:
+                    if w.job_id is not None and w.cancel_at is None and w.started_at is not \
+                            None and now - w.started_at > limit and w.seq is not None:
+                        w.over_limit = (f"stopped: the job ran longer than this server's "
+                                        f"wall-time limit of {limit:g} s (--max-job-seconds); "
+                                        f"the result file keeps the frames recorded before")
+                        w.cancel_seq.value = w.seq
+                        w.cancel_at = now
             late = [w for w in self._workers if w.job_id is not None
                     and w.cancel_at is not None and now - w.cancel_at > w.grace]
         for w in late:

@@ -112,6 +112,16 @@ class MeshStore:
             raise KeyError(mesh_id)
         return path
 
+    def triangles_of(self, file: str):
+        """Triangles of a stored upload named by its path (None for other files)."""
+        path = Path(file)
+        if path.parent != self.meshes_dir:
+            return None
+        with self._lock:
+            row = self._store.db.execute("SELECT info FROM meshes WHERE id = ?",
+                                         (path.stem,)).fetchone()
+        return json.loads(row[0]).get("triangles") if row else None
+
     # ------------------------------------------------------------------ internals
     def resolve_scene(self, scene, *, allow_files: bool):
         import engine

@@ -67,6 +67,7 @@ class JobInfo:
     options: dict = field(default_factory=dict)  # a study job's options, as submitted
     message: Optional[str] = None     # a study job's progress text (its current bar)
     files: list = field(default_factory=list)    # a study job's output files (relative)
+    estimate: dict = field(default_factory=dict)  # its cost estimated at submit
 
     @property
     def done(self) -> bool:
@@ -79,13 +80,13 @@ class JobInfo:
 _COLUMNS = ("id", "name", "status", "created", "started", "finished", "progress", "sim_time",
             "until", "steps_per_s", "eta_s", "dt", "dt_limited_by", "stages", "summary",
             "error", "worker_pid", "assembled", "warnings", "kind", "study", "options",
-            "message")
+            "message", "estimate")
 _JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings": list,
-                 "options": dict}
+                 "options": dict, "estimate": dict}
 # columns added after the first release: added to an older database when it is opened
 _ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
                   ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
-                  ("message", "TEXT"), ("resolved", "TEXT"))
+                  ("message", "TEXT"), ("resolved", "TEXT"), ("estimate", "TEXT"))
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (

@@ -237,6 +237,8 @@ class WorkerHandle:
         self.seq: Optional[int] = None
         self.cancel_at: Optional[float] = None  # monotonic time a cancel was requested
         self.grace: float = 5.0  # how long the running job may take to honour a cancel
+        self.started_at: Optional[float] = None  # monotonic time the running job started
+        self.over_limit: Optional[str] = None  # why the running job was stopped by a limit
 
     @property
     def pid(self) -> Optional[int]:

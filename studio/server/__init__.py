@@ -85,6 +85,16 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
         # 507 Insufficient Storage: the request was fine, the server's disk was not
         return JSONResponse(status_code=507, content={"detail": str(exc)})
 
+    from ..jobs import LimitError
+
+    @app.exception_handler(LimitError)
+    async def limit_error(request, exc: LimitError):
+        # 413: the scene does not fit; 422: it would not end in time; 429: the queue is full
+        headers = {"Retry-After": str(exc.retry_after)} if exc.retry_after else None
+        return JSONResponse(status_code=exc.status, headers=headers,
+                            content={"detail": [exc.as_dict()], "message": str(exc),
+                                     "limit": exc.limit})
+
     app.include_router(runs_router(jobs, guarded, allow_files=allow_files))
     app.include_router(studies_router(jobs, guarded))
     app.include_router(library_router(jobs, guarded, max_upload_bytes=max_upload_bytes))
