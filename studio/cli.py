@@ -230,6 +230,34 @@ def _execute(scene, output: Path, summary_path: Optional[Path], until: Optional[
     return code, summary
 
 
+def output_problem(path: Path, what: str) -> Optional[str]:
+    """Why ``path`` cannot be written as the file ``what`` (one line), or None: checked
+    before a run starts by creating its folder and opening the file for writing (a file
+    that did not exist is removed again), so that a bad ``-o`` or ``--summary`` does not
+    cost a whole run."""
+    import errno
+
+    path = Path(path)
+    if path.is_dir():
+        return f"{what} {path}: is a directory (give a file name)"
+    existed = path.exists()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "ab"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        if exc.errno in (errno.ENOTDIR, errno.EEXIST):
+            reason = "a part of the path is a file, not a folder"
+        return f"{what} {path}: cannot be written ({reason})"
+    if not existed:
+        try:
+            path.unlink()
+        except OSError:
+            pass
+    return None
+
+
 def _cmd_run(args) -> int:
     import engine
 
@@ -241,6 +269,11 @@ def _cmd_run(args) -> int:
     if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
         _err(f"--until = {args.until}: must be a finite time > 0 s")
         return EXIT_BAD_INPUT
+    for path, what in ((args.output, "-o/--output"), (args.summary, "--summary")):
+        problem = output_problem(Path(path), what) if path else None
+        if problem:
+            _err(problem)
+            return EXIT_BAD_INPUT
     code, _ = _execute(scene, Path(args.output), Path(args.summary) if args.summary else None,
                        args.until, args.quiet)
     return code
@@ -354,7 +387,17 @@ def _cmd_demo(args) -> int:
     except engine.SceneError as exc:  # a broken package, not a user error
         _print_scene_error(exc, "the embedded demo scene is invalid")
         return EXIT_FAILED
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        _err(f"-o/--output {out}: cannot be made a folder ({exc.strerror or exc})")
+        return EXIT_BAD_INPUT
+    for name in (("scene.json",) if args.scene_only else
+                 ("demo.h5", "summary.json", "root_force.png")):
+        problem = output_problem(out / name, "-o/--output")
+        if problem:
+            _err(problem)
+            return EXIT_BAD_INPUT
     if args.scene_only:  # a scene file to start from, for the docs' snippets and own edits
         path = out / "scene.json"
         engine.save_scene(scene, path)

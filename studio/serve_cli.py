@@ -77,6 +77,10 @@ def register(subparsers) -> None:
                         "$BRUSH_STUDIO_TOKEN; none: no authentication)")
     s.add_argument("--cors", nargs="*", default=[], metavar="ORIGIN",
                    help="browser origins allowed to call the API (default: none, CORS off)")
+    s.add_argument("--allow-host", nargs="*", default=[], metavar="NAME",
+                   help="names a request's Host header may give besides the bound address "
+                        "and, on loopback, localhost/127.0.0.1/::1 (against DNS rebinding; "
+                        "binding 0.0.0.0 without it leaves Host unchecked)")
     s.add_argument("--max-body-mb", type=float, default=8.0,
                    help="largest request body (a scene), MiB (default 8)")
     s.add_argument("--max-upload-mb", type=float, default=64.0,
@@ -117,6 +121,19 @@ def register(subparsers) -> None:
     s.add_argument("--log-level", default="info",
                    choices=["critical", "error", "warning", "info", "debug"])
     s.set_defaults(func=_cmd_serve)
+
+
+def allowed_hosts(host: str, extra=()) -> "set[str] | None":
+    """The names a request's Host may give: the bound address, its loopback aliases when it
+    is a loopback address, and ``extra``; None (unchecked) for a wildcard bind without
+    ``extra``."""
+    names = {h for h in extra if h}
+    if host in ("0.0.0.0", "::", ""):
+        return names | {"localhost", "127.0.0.1", "::1"} if names else None
+    names.add(host)
+    if is_loopback(host):
+        names |= {"localhost", "127.0.0.1", "::1"}
+    return names
 
 
 def limits_from_args(args):
@@ -187,6 +204,7 @@ def _cmd_serve(args) -> int:
         return EXIT_FAILED
     try:
         app = create_app(jobs, token=token, cors_origins=args.cors,
+                         allowed_hosts=allowed_hosts(args.host, args.allow_host),
                          max_body_bytes=int(args.max_body_mb * 1024 * 1024),
                          max_upload_bytes=int(args.max_upload_mb * 1024 * 1024))
         print(f"Brush Studio API on http://{args.host}:{args.port}/api (OpenAPI: "

@@ -33,7 +33,7 @@ import secrets
 from typing import Iterable, Optional
 
 from ..jobs import JobManager
-from .common import BodyLimit
+from .common import BodyLimit, RequestGuard
 from .library import library_router
 from .runs import MAX_SERIES_POINTS, runs_router  # noqa: F401  (the series limit)
 from .studies import studies_router
@@ -46,11 +46,16 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                cors_origins: Iterable[str] = (),
                max_body_bytes: int = DEFAULT_MAX_BODY_BYTES,
                max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES,
-               allow_files: bool = False):
+               allow_files: bool = False,
+               allowed_hosts: Optional[Iterable[str]] = None):
     """The FastAPI app over ``jobs``. ``token``: require ``Authorization: Bearer <token>``
     on every ``/api`` route but ``/api/health``. ``cors_origins``: origins allowed to call
     the API from a browser (none by default). ``allow_files``: let scenes name server-side
-    mesh files (off: only ``mesh:<id>`` references to uploads)."""
+    mesh files (off: only ``mesh:<id>`` references to uploads). ``allowed_hosts``: the
+    names a request's ``Host`` may give (the bound address and its loopback aliases; None:
+    not checked). Requests that change something from a browser page of another origin
+    are refused (403), and JSON endpoints take ``application/json`` only (415): see
+    :class:`~.common.RequestGuard`."""
     from fastapi import Depends, FastAPI, HTTPException
     from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
@@ -103,6 +108,8 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                        max_upload=int(max_upload_bytes) + 64 * 1024,  # + multipart framing
                        upload_paths=("/api/meshes",))
     origins = [o for o in cors_origins if o]
+    app.add_middleware(RequestGuard, allowed_hosts=allowed_hosts, cors_origins=origins,
+                       json_paths=("/api/runs", "/api/studies"))
     if origins:
         from fastapi.middleware.cors import CORSMiddleware
 
