@@ -109,7 +109,8 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                        upload_paths=("/api/meshes",))
     origins = [o for o in cors_origins if o]
     app.add_middleware(RequestGuard, allowed_hosts=allowed_hosts, cors_origins=origins,
-                       json_paths=("/api/runs", "/api/studies"))
+                       json_paths=("/api/runs", "/api/studies"), token=token,
+                       open_paths=("/api/health",))
     if origins:
         from fastapi.middleware.cors import CORSMiddleware
 

@@ -138,8 +138,11 @@ class RequestGuard:
 
     UNSAFE = ("POST", "PUT", "PATCH", "DELETE")
 
-    def __init__(self, app, allowed_hosts, cors_origins, json_paths: tuple[str, ...]):
+    def __init__(self, app, allowed_hosts, cors_origins, json_paths: tuple[str, ...],
+                 token: Optional[str] = None, open_paths: tuple[str, ...] = ()):
         self.app = app
+        self.token = token
+        self.open_paths = open_paths
         self.allowed_hosts = (None if allowed_hosts is None
                               else {host_name(h) for h in allowed_hosts})
         self.cors_origins = {o.rstrip("/").lower() for o in cors_origins}
@@ -165,7 +168,26 @@ class RequestGuard:
                 return await BodyLimit._reply(
                     send, 403, f"cross-site request refused: Origin {origin!r} is not this "
                                f"server's origin nor an allowed one (--cors ORIGIN)")
-        if method in ("POST", "PUT", "PATCH") and scope["path"] in self.json_paths:
+        path = scope["path"]
+        if self.token is not None and path.startswith("/api") and path not in self.open_paths:
+            # the bearer token before anything reads the body (an unauthenticated 56 MB
+            # upload was read in full before its 401); the routes check it again
+            import secrets
+
+            given = headers.get("authorization", "")
+            scheme, _, credentials = given.partition(" ")
+            if scheme.lower() != "bearer" or not secrets.compare_digest(
+                    credentials.strip().encode(), self.token.encode()):
+                body = json.dumps({"detail": "missing or wrong bearer token (send "
+                                             "'Authorization: Bearer <token>')"}).encode()
+                await send({"type": "http.response.start", "status": 401,
+                            "headers": [(b"content-type", b"application/json"),
+                                        (b"content-length", str(len(body)).encode()),
+                                        (b"www-authenticate", b"Bearer"),
+                                        (b"connection", b"close")]})
+                await send({"type": "http.response.body", "body": body})
+                return
+        if method in ("POST", "PUT", "PATCH") and path in self.json_paths:
             ctype = headers.get("content-type", "").split(";", 1)[0].strip().lower()
             if ctype != "application/json" and not (ctype.startswith("application/")
                                                     and ctype.endswith("+json")):
@@ -173,3 +195,25 @@ class RequestGuard:
                     send, 415, f"Content-Type {ctype or '(none)'!r}: this endpoint takes "
                                f"application/json")
         return await self.app(scope, receive, send)
+
+
+MAX_JSON_DEPTH = 64  # a scene nests 6 deep; far deeper is an attack on the parser
+
+
+def json_body(raw: bytes):
+    """A request body parsed as JSON; ValueError (with the reason) for bad JSON or JSON
+    nested deeper than ``MAX_JSON_DEPTH`` (which would exhaust Python's recursion in the
+    checks after the parser: a RecursionError, a 500)."""
+    try:
+        data = json.loads(raw)
+    except RecursionError:
+        raise ValueError(f"nested deeper than {MAX_JSON_DEPTH} levels") from None
+    stack = [(data, 1)]  # an iterative walk: no recursion of its own
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, (dict, list)):
+            if depth > MAX_JSON_DEPTH:
+                raise ValueError(f"nested deeper than {MAX_JSON_DEPTH} levels")
+            items = value.values() if isinstance(value, dict) else value
+            stack.extend((v, depth + 1) for v in items if isinstance(v, (dict, list)))
+    return data

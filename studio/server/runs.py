@@ -6,7 +6,7 @@ import json
 from typing import Optional
 
 from ..jobs import FINAL_STATUSES, STATUSES, JobManager, jsonable
-from .common import non_finite_paths, not_found_job, scene_error
+from .common import json_body, non_finite_paths, not_found_job, scene_error
 
 MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
 
@@ -41,7 +41,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         mesh as ``"file": "mesh:<id>"`` (see ``POST /api/meshes``)."""
         raw = await request.body()
         try:
-            data = json.loads(raw)
+            data = json_body(raw)
         except (ValueError, UnicodeDecodeError) as exc:
             return scene_error(engine.SceneError.single("(body)", None,
                                                         f"must be a JSON object: {exc}"))

@@ -7,6 +7,7 @@ import json
 from typing import Optional
 
 from ..jobs import STATUSES, STUDIES, JobManager, StudyOptionError, jsonable, study_options
+from .common import json_body
 
 
 def studies_router(jobs: JobManager, guarded: list):
@@ -52,7 +53,7 @@ def studies_router(jobs: JobManager, guarded: list):
         (``GET /api/studies/{id}/files``). Scenes are preset names only."""
         raw = await request.body()
         try:
-            data = json.loads(raw)
+            data = json_body(raw)
         except (ValueError, UnicodeDecodeError) as exc:
             return option_error(StudyOptionError([("(body)", None,
                                                    f"must be a JSON object: {exc}")]))
