@@ -33,6 +33,10 @@ DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
 from .worker import WorkerHandle, cpu_count, describe_exit
 
 
+class _DuplicateKey(Exception):
+    """A job with this idempotency key was stored meanwhile."""
+
+
 class JobManager:
     """Bounded pool of worker processes, FIFO queue, state in ``data_dir/jobs.sqlite``.
 
@@ -101,7 +105,7 @@ class JobManager:
 
     # ------------------------------------------------------------------ public API
     def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
-               check_build: bool = False) -> str:
+               check_build: bool = False, idempotency_key: Optional[str] = None) -> str:
         """Queue a scene (an ``engine.Scene``, a dict or JSON text); returns the job id.
 
         Raises ``engine.SceneError`` naming every bad field, :class:`~.limits.LimitError`
@@ -112,8 +116,15 @@ class JobManager:
         must, and no other file path is accepted. Nothing is built here (a huge scene would
         hold this process); what only the build can see fails the job with the reason.
         ``check_build`` builds it here all the same (small scenes, scripts).
+        ``idempotency_key``: a submit with a key already used returns that job's id and
+        queues nothing (a client's retry after a lost answer).
         """
         import engine
+
+        if idempotency_key is not None:
+            known = self.job_for_key(idempotency_key)
+            if known is not None:
+                return known
 
         scene = self._meshes.resolve_scene(scene, allow_files=allow_files)
         cost = engine.estimate(scene, mesh_triangles=self._meshes.triangles_of)
@@ -126,12 +137,23 @@ class JobManager:
         name = str(name).strip()[:200]
         scene_json = scene.to_json()
         job_id = uuid.uuid4().hex[:12]
-        self._create_job(job_id, {"scene.json": scene_json + "\n"},
-                         "INSERT INTO jobs (id, name, status, created, until, scene, estimate) "
-                         "VALUES (?, ?, 'queued', ?, ?, ?, ?)",
-                         (job_id, name, time.time(), _finite(scene.run.duration), scene_json,
-                          json.dumps(jsonable(cost.as_dict()))))
+        try:
+            self._create_job(job_id, {"scene.json": scene_json + "\n"},
+                             "INSERT INTO jobs (id, name, status, created, until, scene, "
+                             "estimate, idempotency_key) VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
+                             (job_id, name, time.time(), _finite(scene.run.duration),
+                              scene_json, json.dumps(jsonable(cost.as_dict())),
+                              idempotency_key))
+        except _DuplicateKey:
+            return self.job_for_key(idempotency_key)
         return job_id
+
+    def job_for_key(self, key: str) -> Optional[str]:
+        """The job submitted with idempotency key ``key``, or None."""
+        with self._lock:
+            row = self._db.execute("SELECT id FROM jobs WHERE idempotency_key = ?",
+                                   (key,)).fetchone()
+        return row[0] if row else None
 
     def _check_queue(self) -> None:
         """:class:`LimitError` (429) when ``limits.max_queued`` jobs already wait."""
@@ -193,6 +215,9 @@ class JobManager:
             with self._lock:
                 self._db.execute(sql, args)
                 self._changed.notify_all()
+        except sqlite3.IntegrityError:  # the same idempotency key, submitted concurrently
+            shutil.rmtree(run_dir, ignore_errors=True)
+            raise _DuplicateKey() from None
         except (OSError, sqlite3.Error) as exc:
             shutil.rmtree(run_dir, ignore_errors=True)
             reason = storage_reason(exc)
@@ -355,6 +380,32 @@ class JobManager:
             return self.wait(job_id, timeout=wait)
         except TimeoutError:
             return self.get(job_id)
+
+    def purge(self, job_id: str, wait: float = 10.0) -> dict:
+        """Delete a job and its files (its folder under ``runs/``: result, scene, a study's
+        outputs); a queued or running job is cancelled first. Returns ``{"id", "purged":
+        True, "freed_bytes"}``; KeyError if unknown, :class:`StorageError` if the folder
+        cannot be removed, RuntimeError if the job does not stop within ``wait`` s."""
+        info = self.get(job_id)
+        if not info.done:
+            self.cancel(job_id, wait=wait)
+            info = self.get(job_id)
+            if not info.done:
+                raise RuntimeError(f"job {job_id} is still {info.status}: it did not stop "
+                                   f"within {wait:g} s; purge it again later")
+        folder = self.runs_dir / job_id
+        freed = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) \
+            if folder.is_dir() else 0
+        try:
+            shutil.rmtree(folder, ignore_errors=False) if folder.exists() else None
+            with self._lock:
+                self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
+                self._pending_final.pop(job_id, None)
+                self._changed.notify_all()
+        except (OSError, sqlite3.Error) as exc:
+            raise StorageError(f"job {job_id} could not be purged: "
+                               f"{storage_reason(exc)}") from exc
+        return {"id": job_id, "purged": True, "freed_bytes": freed}
 
     def result_path(self, job_id: str) -> Path:
         """The job's HDF5 result file (it may not exist yet, or be partial while the job

@@ -86,7 +86,8 @@ _JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings":
 # columns added after the first release: added to an older database when it is opened
 _ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
                   ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
-                  ("message", "TEXT"), ("resolved", "TEXT"), ("estimate", "TEXT"))
+                  ("message", "TEXT"), ("resolved", "TEXT"), ("estimate", "TEXT"),
+                  ("idempotency_key", "TEXT"))
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -147,6 +148,8 @@ class JobStore:
             for col, decl in _ADDED_COLUMNS:
                 if col not in have:
                     self.db.execute(f"ALTER TABLE jobs ADD COLUMN {col} {decl}")
+            self.db.execute("CREATE UNIQUE INDEX IF NOT EXISTS jobs_idempotency_key ON jobs "
+                            "(idempotency_key) WHERE idempotency_key IS NOT NULL")
             self.recover()
 
     def close(self) -> None:

@@ -14,7 +14,7 @@ MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
 def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
     """The routes of scene jobs (``guarded``: the dependencies of every route)."""
     import anyio
-    from fastapi import APIRouter, HTTPException, Query, Request
+    from fastapi import APIRouter, Header, HTTPException, Query, Request
     from fastapi.responses import FileResponse, JSONResponse
 
     import engine
@@ -35,10 +35,20 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
     async def submit_run(request: Request,
                          name: Optional[str] = Query(None, max_length=200,
                                                      description="a label for the run "
-                                                                 "(default: the scene's name)")):
+                                                                 "(default: the scene's name)"),
+                         idempotency_key: Optional[str] = Header(
+                             None, max_length=200,
+                             description="a key of the client's choice: a submit repeated "
+                                         "with the same key returns the first one's run "
+                                         "(200) instead of queueing another")):
         """The body is a scene as JSON (docs/scene.md). Returns the new run (its ``id``);
         the run is queued and starts when a worker is free. A mesh shape names an uploaded
         mesh as ``"file": "mesh:<id>"`` (see ``POST /api/meshes``)."""
+        if idempotency_key:
+            known = jobs.job_for_key(idempotency_key)
+            if known is not None:
+                return JSONResponse(status_code=200, content=jobs.get(known).to_dict(),
+                                    headers={"Location": f"/api/runs/{known}"})
         raw = await request.body()
         try:
             data = json_body(raw)
@@ -56,7 +66,8 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
                 [FieldProblem(p, "NaN/Infinity", "must be a finite number") for p in bad]))
         try:
             job_id = await anyio.to_thread.run_sync(
-                lambda: jobs.submit(data, name=name, allow_files=allow_files))
+                lambda: jobs.submit(data, name=name, allow_files=allow_files,
+                                    idempotency_key=idempotency_key or None))
         except engine.SceneError as exc:
             return scene_error(exc)
         info = jobs.get(job_id).to_dict()
@@ -79,11 +90,19 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         return job_or_404(job_id).to_dict()
 
     @router.delete("/api/runs/{job_id}", dependencies=guarded, tags=["runs"],
-                summary="Cancel a run")
-    def cancel_run(job_id: str):
+                summary="Cancel a run, or delete it and its files (purge=true)")
+    def cancel_run(job_id: str, purge: bool = Query(False, description="also delete the "
+                                                    "run and its files (result, scene)")):
         """A queued run is cancelled at once; a running one stops within a second and its
-        result file keeps the frames recorded so far. A finished run is left as it is."""
+        result file keeps the frames recorded so far. A finished run is left as it is.
+        With ``purge=true`` the run is then deleted with its files: ``{id, purged,
+        freed_bytes}``; its id is unknown (404) afterwards."""
         job_or_404(job_id)
+        if purge:
+            try:
+                return jobs.purge(job_id)
+            except RuntimeError as exc:
+                raise HTTPException(409, str(exc)) from None
         return jobs.cancel(job_id).to_dict()
 
     @router.get("/api/runs/{job_id}/result", dependencies=guarded, tags=["runs"],

@@ -67,3 +67,26 @@ def test_an_obj_with_millions_of_faces_is_refused_before_parsing(jobs):
         jobs.add_mesh(data, "many.obj")
     assert err.value.status == 413 and "5000000 triangles" in str(err.value)
     assert time.perf_counter() - t0 < 2.0  # it was 20.5 s and +860 MB of parsing
+
+
+def test_a_repeated_idempotency_key_queues_one_job(jobs, tiny_scene):
+    client = TestClient(create_app(jobs))
+    headers = {"Idempotency-Key": "retry-after-a-lost-answer-1"}
+    first = client.post("/api/runs", json=tiny_scene(duration=0.002), headers=headers)
+    again = client.post("/api/runs", json=tiny_scene(duration=0.002), headers=headers)
+    assert first.status_code == 201 and again.status_code == 200
+    assert again.json()["id"] == first.json()["id"]
+    other = client.post("/api/runs", json=tiny_scene(duration=0.002),
+                        headers={"Idempotency-Key": "another"})
+    assert other.status_code == 201 and other.json()["id"] != first.json()["id"]
+
+
+def test_purge_deletes_a_run_and_its_files(jobs, tiny_scene):
+    client = TestClient(create_app(jobs))
+    run_id = client.post("/api/runs", json=tiny_scene(duration=0.002)).json()["id"]
+    jobs.wait(run_id, timeout=600)
+    assert (jobs.runs_dir / run_id / "result.h5").is_file()
+    r = client.delete(f"/api/runs/{run_id}", params={"purge": "true"})
+    assert r.status_code == 200 and r.json()["freed_bytes"] > 0
+    assert not (jobs.runs_dir / run_id).exists()
+    assert client.get(f"/api/runs/{run_id}").status_code == 404

@@ -102,14 +102,14 @@ def tiny_tmpfs(tmp_path):
 
 
 def _fill(path: Path) -> None:
-    """Write ``path`` until the disk is full."""
-    with open(path, "wb") as f:
-        try:
+    """Write ``path`` until the disk is full (it may be full already)."""
+    try:
+        with open(path, "wb") as f:
             while True:
                 f.write(b"\0" * 65536)
                 f.flush()
-        except OSError:
-            pass
+    except OSError:
+        pass
     try:  # the last partial blocks
         with open(path, "ab") as f:
             while True:
@@ -139,7 +139,12 @@ def test_a_full_tmpfs_fails_the_job_and_the_service_recovers(tiny_tmpfs, long_sc
         assert r.status_code == 507, r.text
         assert sorted(p.name for p in jm.runs_dir.iterdir()) == before  # no orphan folder
         assert client.get("/api/health").json()["status"] == "degraded"
-        filler.unlink()
+        # space returns: the filler goes, and the first run is purged with its files
+        filler.unlink(missing_ok=True)
+        purged = client.delete(f"/api/runs/{first}", params={"purge": "true"})
+        assert purged.status_code == 200 and purged.json()["purged"], purged.text
+        assert not (jm.runs_dir / first).exists()
+        assert client.get(f"/api/runs/{first}").status_code == 404
         r = client.post("/api/runs", json=tiny_scene(duration=0.002))
         assert r.status_code == 201, r.text
         assert jm.wait(r.json()["id"], timeout=600).status == "completed"
