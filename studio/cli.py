@@ -123,22 +123,43 @@ def summary_table(summary: dict, result_path=None) -> str:
 class _ProgressBar:
     """A tqdm bar over simulated time, with steps/s and the engine's ETA as postfix."""
 
+    # until the first progress report the engine may be compiling (a cold numba cache:
+    # minutes): the bar says so and shows no ETA; the rate and ETA then come from the steps
+    # between reports, so that the compile does not count in them (it gave "ETA 825 min")
+    STARTING = "compiling the engine (first run only) / starting"
+
     def __init__(self, until: float, start: float, disable: bool):
         from tqdm import tqdm
 
         self.start = start
+        self.last: Optional[tuple[float, int]] = None  # (monotonic time, steps) last report
+        self.rate: Optional[float] = None
         self.bar = tqdm(total=max(until - start, 0.0), disable=disable, unit="s",
                         dynamic_ncols=True, leave=True,
                         bar_format="{desc} {percentage:3.0f}%|{bar}| "
-                                   "t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}"
-                                   "{postfix}]",
-                        desc="simulating")
+                                   "t = {n:.4g}/{total:.4g} s [{elapsed}{postfix}]",
+                        desc=self.STARTING)
+        self.desc, self.postfix = self.STARTING, ""  # what the bar shows (also when off)
+        self.bar.refresh()
 
     def __call__(self, p) -> None:
+        import time as _time
+
+        now = _time.monotonic()
+        if self.last is None:
+            self.desc = "simulating"
+            self.bar.set_description_str(self.desc, refresh=False)
+        elif now > self.last[0] and p.steps > self.last[1]:
+            rate = (p.steps - self.last[1]) / (now - self.last[0])
+            self.rate = rate if self.rate is None else 0.7 * self.rate + 0.3 * rate
+        self.last = (now, p.steps)
         self.bar.n = max(min(p.time - self.start, self.bar.total), 0.0)
-        eta = _fmt_seconds(p.eta_s) if math.isfinite(p.eta_s) else "?"
-        self.bar.set_postfix_str(f"{_fmt_rate(p.steps_per_s)} steps/s, ETA {eta}",
-                                 refresh=False)
+        if self.rate:
+            eta = _fmt_seconds(max(p.total_steps - p.steps, 0) / self.rate)
+            self.postfix = f"{_fmt_rate(self.rate)} steps/s, ETA {eta}"
+        else:
+            self.postfix = "measuring speed"
+        self.bar.set_postfix_str(self.postfix, refresh=False)
         self.bar.refresh()
 
     def close(self, completed: bool = False) -> None:
