@@ -115,6 +115,10 @@ def register(subparsers) -> None:
                           f"{d.max_queued})")
     lim.add_argument("--max-study-runs", type=int, default=d.max_study_runs,
                      help=f"runs one study may plan (default {d.max_study_runs})")
+    lim.add_argument("--keep-days", type=float, default=0.0,
+                     help="delete finished jobs and their files this many days after they "
+                          "finished (default 0: keep everything; DELETE "
+                          "/api/runs/{id}?purge=true deletes one)")
     lim.add_argument("--min-free-mb", type=float, default=16.0,
                      help="free space the data folder must keep; below it submits are "
                           "refused with 507 and health says degraded (default 16)")
@@ -145,7 +149,7 @@ def limits_from_args(args):
     for name, scale in (("max_nodes", 1), ("max_steps", 1), ("max_node_steps", 1),
                         ("max_frames", 1), ("max_memory_mb", 2**20),
                         ("max_result_mb", 2**20), ("max_job_seconds", 1), ("max_queued", 1),
-                        ("max_study_runs", 1)):
+                        ("max_study_runs", 1), ("keep_days", 1)):
         v = getattr(args, name)
         if not v >= 0:
             raise ValueError(f"--{name.replace('_', '-')} = {v}: must be >= 0 (0: no limit)")

@@ -28,6 +28,7 @@ class Limits:
     max_job_seconds: Optional[float] = 6 * 3600.0   # wall time of one job, then it fails
     max_queued: Optional[int] = 100                 # jobs waiting: then 429
     max_study_runs: Optional[int] = 200             # runs one study may plan
+    keep_days: Optional[float] = None               # finished jobs older: purged
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -513,7 +513,7 @@ class JobManager:
                 # each step on its own: an error in one (a full disk, a worker that cannot
                 # start) is reported in health and retried, and never stops the others
                 for step in (self._flush_pending, self._keep_pool, self._dispatch,
-                             self._enforce_cancels):
+                             self._enforce_cancels, self._retain):
                     self._guarded(step)
                 with self._lock:
                     workers = list(self._workers)
@@ -533,6 +533,21 @@ class JobManager:
                         self._guarded(self._on_death, w)
         finally:
             self._shutdown_workers()
+
+    def _retain(self) -> None:
+        """Purge finished jobs older than ``limits.keep_days`` (checked once a minute)."""
+        days = self.limits.keep_days
+        now = time.monotonic()
+        if days is None or now < getattr(self, "_next_retain", 0.0):
+            return
+        self._next_retain = now + 60.0
+        cutoff = time.time() - days * 86400.0
+        with self._lock:
+            rows = self._db.execute(
+                "SELECT id FROM jobs WHERE status IN ('completed', 'stopped', 'failed', "
+                "'cancelled') AND finished IS NOT NULL AND finished < ?", (cutoff,)).fetchall()
+        for (job_id,) in rows:
+            self.purge(job_id)
 
     def _guarded(self, step, *args) -> None:
         """Run one step of the monitor loop; an exception is printed once per kind, shown

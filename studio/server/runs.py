@@ -154,15 +154,18 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         with res:
             channels = list(res.channels())
             if not channel:
-                return {"id": job_id, "status": res.status, "n_frames": res.n_frames,
-                        "channels": channels}
+                return {"id": job_id, "status": info.status, "file_status": res.status,
+                        "n_frames": res.n_frames, "channels": channels}
             unknown = [c for c in channel if c not in channels]
             if unknown:
                 raise HTTPException(422, f"unknown channel(s) {unknown}: this run records "
                                          f"{channels}")
             frames = slice(start, stop, step)
             time_ = res.time[frames]
-            out = {"id": job_id, "status": res.status, "n_frames": res.n_frames,
+            # one status: the job's (a killed worker's file still says "running");
+            # the file's own is file_status
+            out = {"id": job_id, "status": info.status, "file_status": res.status,
+                   "n_frames": res.n_frames,
                    "frames": {"start": start, "stop": stop, "step": step},
                    "time": jsonable(time_), "series": {}}
             total = len(time_)

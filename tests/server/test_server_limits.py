@@ -112,3 +112,24 @@ def test_validate_refuses_a_huge_scene_from_its_estimate(write_scene, tiny_scene
     assert "400000000 nodes" in out.out and "--max-nodes" in out.err
     assert main(["validate", "--estimate-only", str(write_scene(tiny_scene()))]) == 0
     assert "16 nodes" in capsys.readouterr().out
+
+
+def test_finished_jobs_past_the_retention_are_purged(tmp_path, tiny_scene):
+    jm = JobManager(tmp_path / "data", workers=1, limits=Limits(keep_days=1.0))
+    try:
+        old = jm.submit(tiny_scene(duration=0.002))
+        jm.wait(old, timeout=600)
+        new = jm.submit(tiny_scene(duration=0.002))
+        jm.wait(new, timeout=600)
+        jm._store.update(old, finished=time.time() - 2 * 86400.0)  # finished 2 days ago
+        jm._next_retain = 0.0
+        jm._wake()
+        deadline = time.monotonic() + 10
+        while (jm.runs_dir / old).exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not (jm.runs_dir / old).exists()
+        with pytest.raises(KeyError):
+            jm.get(old)
+        assert jm.get(new).status == "completed"  # finished today: kept
+    finally:
+        jm.close()
