@@ -30,7 +30,9 @@ from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, js
 #: below this much free space in the data folder, submits are refused (507) and health says
 #: ``degraded``: a run's files and the job database need room to record even a failure
 DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
-from .worker import WorkerHandle, cpu_count, describe_exit
+# a killed worker's result file up to this size is finalized before its job is reported
+FINALIZE_INLINE_BYTES = 64 * 1024 * 1024
+from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
 
 
 class _DuplicateKey(Exception):
@@ -718,6 +720,20 @@ class JobManager:
                 status, error = "failed", (f"the worker process (pid {w.pid}) died while "
                                            f"running this job ({reason}); the result file "
                                            f"keeps the frames recorded before")
+            # its result file: from "running" and open-for-writing to the job's status (a
+            # copy of the file: before the job is reported finished when it is small, so
+            # that a client downloading it then gets the final file; in the background
+            # when it is large, not to hold the dispatcher)
+            h5 = self.runs_dir / job_id / "result.h5"
+            try:
+                size = h5.stat().st_size
+            except OSError:
+                size = None
+            if size is not None and size <= FINALIZE_INLINE_BYTES:
+                finalize_killed_result(h5, status, error)
+            elif size is not None:
+                threading.Thread(target=finalize_killed_result, args=(h5, status, error),
+                                 name="finalize-result", daemon=True).start()
             self._finish(job_id, status=status, finished=time.time(), error=error, eta_s=None)
         if not w.ready:  # died while starting: say so, and do not respawn in a tight loop
             self._start_failures += 1

@@ -257,3 +257,37 @@ class WorkerHandle:
             self.process.kill()
             self.process.join(2.0)
         self.conn.close()
+
+
+def finalize_killed_result(path: Path, status: str, message: str) -> bool:
+    """Make the result file of a job whose worker died a plain, finished HDF5 file with the
+    job's status: a killed writer leaves it marked open-for-SWMR-writing (plain
+    ``h5py.File(p, "r")`` refuses it) with ``status = "running"``. Its objects are copied
+    into a new file with ``status`` and ``error = {"type": "WorkerDied", "message"}``, which
+    then replaces it (atomically: readers see the old or the new file). Returns False (and
+    leaves the file as it is; ``engine.open_result`` reads it) when it cannot."""
+    import h5py
+
+    from engine.recorder import _text, json_text
+
+    path = Path(path)
+    if not path.is_file():
+        return False
+    tmp = path.with_name(path.name + ".finalizing")
+    try:
+        with h5py.File(path, "r", swmr=True, locking=False) as src, \
+                h5py.File(tmp, "w", libver="latest", locking=False) as dst:
+            for key in src.attrs:
+                dst.attrs.create(key, src.attrs[key], dtype=src.attrs.get_id(key).dtype)
+            for name in src:
+                src.copy(src[name], dst, name=name)
+            dst.attrs["status"] = _text(status)
+            dst.attrs["error"] = _text(json_text({"type": "WorkerDied", "message": message}))
+        os.replace(tmp, path)
+        return True
+    except Exception:  # a file killed while it was set up, a full disk: leave it
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        return False
