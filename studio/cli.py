@@ -469,15 +469,16 @@ def _cmd_validate(args) -> int:
     # the estimate first (microseconds whatever the size): a scene too large to build here
     # is refused before any array is allocated
     cost = engine.estimate(scene)
-    print(f"estimate: {cost.summary()}", flush=True)
     for name, value, allowed in (("--max-nodes", cost.n_nodes, args.max_nodes),
                                  ("--max-memory-mb", cost.memory_bytes / 2**20,
                                   args.max_memory_mb)):
         if allowed and value > allowed:
+            print(f"estimate: {cost.summary()}", flush=True)
             _err(f"{args.scene}: too large to build here: {value:.4g} against {name} "
                  f"{allowed:g} (raise {name} to build it anyway, or --estimate-only)")
             return EXIT_BAD_INPUT
     if args.estimate_only:
+        print(f"estimate: {cost.summary()}")
         return EXIT_OK
     try:
         system = engine.build(scene)
@@ -490,6 +491,7 @@ def _cmd_validate(args) -> int:
           f"{system.n_bristles:,} bristles, {system.n_nodes:,} nodes, "
           f"{nbody} bod{'ies' if nbody != 1 else 'y'}; dt {system.dt:.3g} s limited by "
           f"{system.dt_limited_by}; {scene.run.duration:g} s to simulate")
+    print(f"estimate: {cost.summary()}")
     for w in system.warnings:
         print(f"warning: {w}")
     return EXIT_OK
