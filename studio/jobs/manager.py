@@ -26,13 +26,13 @@ from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
 from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
                     storage_reason)
+from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
 
 #: below this much free space in the data folder, submits are refused (507) and health says
 #: ``degraded``: a run's files and the job database need room to record even a failure
 DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
 # a killed worker's result file up to this size is finalized before its job is reported
 FINALIZE_INLINE_BYTES = 64 * 1024 * 1024
-from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
 
 
 class _DuplicateKey(Exception):
