@@ -38,13 +38,14 @@ _EXPORTS = {
     "run": "run", "RunResult": "run", "Progress": "run", "energies": "run",
     "angular_momentum": "run", "linear_momentum": "run", "run_steps": "run",
     "open_result": "results", "ResultFile": "results",
-    "prescribe_motion": "motion",
+    "prescribe_motion": "motion", "estimate": "estimate", "Cost": "estimate",
     "BrushStudioError": "errors", "SceneError": "errors", "InstabilityError": "errors",
 }
 
 __all__ = ["Scene", "SCHEMA_VERSION", "load_scene", "parse_scene", "save_scene", "build",
            "System", "run", "RunResult", "Progress", "open_result", "ResultFile",
-           "prescribe_motion", "energies", "angular_momentum", "linear_momentum", "run_steps",
+           "prescribe_motion", "estimate", "Cost", "energies", "angular_momentum",
+           "linear_momentum", "run_steps",
            "BrushStudioError", "SceneError", "InstabilityError"]
 
 

@@ -13,22 +13,46 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal, Optional, Union
 
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
-                      model_validator)
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError,
+                      field_validator, model_validator)
 
 from .errors import FieldProblem, SceneError
 
 SCHEMA_VERSION = 1
 _SEP, _FS = "\x1e", "\x1f"  # record/field separators of cross-reference problems
 
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+
+
+def _number(value):
+    """Numbers only: JSON's true/false and text are not numbers (pydantic's lax mode would
+    read ``true`` as 1.0 and ``"2"`` as 2.0)."""
+    if isinstance(value, (bool, str, bytes)):
+        raise ValueError("must be a number (not true/false or text)")
+    return value
+
+
+_Number = BeforeValidator(_number)
+PositiveFloat = Annotated[float, _Number, Field(gt=0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, _Number, Field(ge=0, allow_inf_nan=False)]
+FiniteFloat = Annotated[float, _Number, Field(allow_inf_nan=False)]
 Vector3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _strict_numbers(cls, data):
+        """A number field (int or float) takes numbers only, not true/false or text."""
+        if isinstance(data, dict):
+            bad = [k for k, v in data.items() if isinstance(v, (bool, str, bytes))
+                   and k in cls.model_fields and cls.model_fields[k].annotation in (int, float)]
+            if bad:
+                raise ValueError(_SEP.join(
+                    f"{k}{_FS}{json.dumps(data[k])}{_FS}must be a number (not true/false or "
+                    f"text)" for k in bad))
+        return data
 
 
 # --------------------------------------------------------------------------- poses
@@ -481,7 +505,9 @@ def _problems_from(err: ValidationError) -> list[FieldProblem]:
         if e["type"] == "value_error" and _FS in msg:
             for part in msg.split(_SEP):
                 field, value, rest = part.split(_FS)
-                problems.append(FieldProblem(field, json.loads(value), rest))
+                # a nested model's problems name its own fields: prefix where it is
+                problems.append(FieldProblem(f"{loc}.{field}" if loc else field,
+                                             json.loads(value), rest))
             continue
         if e["type"] == "missing":  # its "input" is the enclosing object: say what is missing
             problems.append(FieldProblem(loc, None, "required field is missing"))

@@ -123,22 +123,43 @@ def summary_table(summary: dict, result_path=None) -> str:
 class _ProgressBar:
     """A tqdm bar over simulated time, with steps/s and the engine's ETA as postfix."""
 
+    # until the first progress report the engine may be compiling (a cold numba cache:
+    # minutes): the bar says so and shows no ETA; the rate and ETA then come from the steps
+    # between reports, so that the compile does not count in them (it gave "ETA 825 min")
+    STARTING = "compiling the engine (first run only) / starting"
+
     def __init__(self, until: float, start: float, disable: bool):
         from tqdm import tqdm
 
         self.start = start
+        self.last: Optional[tuple[float, int]] = None  # (monotonic time, steps) last report
+        self.rate: Optional[float] = None
         self.bar = tqdm(total=max(until - start, 0.0), disable=disable, unit="s",
                         dynamic_ncols=True, leave=True,
                         bar_format="{desc} {percentage:3.0f}%|{bar}| "
-                                   "t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}"
-                                   "{postfix}]",
-                        desc="simulating")
+                                   "t = {n:.4g}/{total:.4g} s [{elapsed}{postfix}]",
+                        desc=self.STARTING)
+        self.desc, self.postfix = self.STARTING, ""  # what the bar shows (also when off)
+        self.bar.refresh()
 
     def __call__(self, p) -> None:
+        import time as _time
+
+        now = _time.monotonic()
+        if self.last is None:
+            self.desc = "simulating"
+            self.bar.set_description_str(self.desc, refresh=False)
+        elif now > self.last[0] and p.steps > self.last[1]:
+            rate = (p.steps - self.last[1]) / (now - self.last[0])
+            self.rate = rate if self.rate is None else 0.7 * self.rate + 0.3 * rate
+        self.last = (now, p.steps)
         self.bar.n = max(min(p.time - self.start, self.bar.total), 0.0)
-        eta = _fmt_seconds(p.eta_s) if math.isfinite(p.eta_s) else "?"
-        self.bar.set_postfix_str(f"{_fmt_rate(p.steps_per_s)} steps/s, ETA {eta}",
-                                 refresh=False)
+        if self.rate:
+            eta = _fmt_seconds(max(p.total_steps - p.steps, 0) / self.rate)
+            self.postfix = f"{_fmt_rate(self.rate)} steps/s, ETA {eta}"
+        else:
+            self.postfix = "measuring speed"
+        self.bar.set_postfix_str(self.postfix, refresh=False)
         self.bar.refresh()
 
     def close(self, completed: bool = False) -> None:
@@ -230,6 +251,34 @@ def _execute(scene, output: Path, summary_path: Optional[Path], until: Optional[
     return code, summary
 
 
+def output_problem(path: Path, what: str) -> Optional[str]:
+    """Why ``path`` cannot be written as the file ``what`` (one line), or None: checked
+    before a run starts by creating its folder and opening the file for writing (a file
+    that did not exist is removed again), so that a bad ``-o`` or ``--summary`` does not
+    cost a whole run."""
+    import errno
+
+    path = Path(path)
+    if path.is_dir():
+        return f"{what} {path}: is a directory (give a file name)"
+    existed = path.exists()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "ab"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        if exc.errno in (errno.ENOTDIR, errno.EEXIST):
+            reason = "a part of the path is a file, not a folder"
+        return f"{what} {path}: cannot be written ({reason})"
+    if not existed:
+        try:
+            path.unlink()
+        except OSError:
+            pass
+    return None
+
+
 def _cmd_run(args) -> int:
     import engine
 
@@ -241,6 +290,11 @@ def _cmd_run(args) -> int:
     if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
         _err(f"--until = {args.until}: must be a finite time > 0 s")
         return EXIT_BAD_INPUT
+    for path, what in ((args.output, "-o/--output"), (args.summary, "--summary")):
+        problem = output_problem(Path(path), what) if path else None
+        if problem:
+            _err(problem)
+            return EXIT_BAD_INPUT
     code, _ = _execute(scene, Path(args.output), Path(args.summary) if args.summary else None,
                        args.until, args.quiet)
     return code
@@ -354,7 +408,17 @@ def _cmd_demo(args) -> int:
     except engine.SceneError as exc:  # a broken package, not a user error
         _print_scene_error(exc, "the embedded demo scene is invalid")
         return EXIT_FAILED
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        _err(f"-o/--output {out}: cannot be made a folder ({exc.strerror or exc})")
+        return EXIT_BAD_INPUT
+    for name in (("scene.json",) if args.scene_only else
+                 ("demo.h5", "summary.json", "root_force.png")):
+        problem = output_problem(out / name, "-o/--output")
+        if problem:
+            _err(problem)
+            return EXIT_BAD_INPUT
     if args.scene_only:  # a scene file to start from, for the docs' snippets and own edits
         path = out / "scene.json"
         engine.save_scene(scene, path)
@@ -399,6 +463,24 @@ def _cmd_validate(args) -> int:
 
     try:
         scene = engine.load_scene(args.scene)
+    except engine.SceneError as exc:
+        _print_scene_error(exc, f"invalid scene {args.scene}")
+        return EXIT_BAD_INPUT
+    # the estimate first (microseconds whatever the size): a scene too large to build here
+    # is refused before any array is allocated
+    cost = engine.estimate(scene)
+    for name, value, allowed in (("--max-nodes", cost.n_nodes, args.max_nodes),
+                                 ("--max-memory-mb", cost.memory_bytes / 2**20,
+                                  args.max_memory_mb)):
+        if allowed and value > allowed:
+            print(f"estimate: {cost.summary()}", flush=True)
+            _err(f"{args.scene}: too large to build here: {value:.4g} against {name} "
+                 f"{allowed:g} (raise {name} to build it anyway, or --estimate-only)")
+            return EXIT_BAD_INPUT
+    if args.estimate_only:
+        print(f"estimate: {cost.summary()}")
+        return EXIT_OK
+    try:
         system = engine.build(scene)
     except engine.SceneError as exc:
         _print_scene_error(exc, f"invalid scene {args.scene}")
@@ -409,6 +491,7 @@ def _cmd_validate(args) -> int:
           f"{system.n_bristles:,} bristles, {system.n_nodes:,} nodes, "
           f"{nbody} bod{'ies' if nbody != 1 else 'y'}; dt {system.dt:.3g} s limited by "
           f"{system.dt_limited_by}; {scene.run.duration:g} s to simulate")
+    print(f"estimate: {cost.summary()}")
     for w in system.warnings:
         print(f"warning: {w}")
     return EXIT_OK
@@ -496,6 +579,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="check a scene without running it")
     v.add_argument("scene", metavar="SCENE.json")
+    v.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
+                   help="refuse to build a scene with more bristle nodes (default 2000000; "
+                        "0: no limit)")
+    v.add_argument("--max-memory-mb", type=float, default=8192.0, metavar="MB",
+                   help="refuse to build a scene estimated to need more memory (default "
+                        "8192; 0: no limit)")
+    v.add_argument("--estimate-only", action="store_true",
+                   help="print the cost estimate and stop (no build)")
     v.set_defaults(func=_cmd_validate)
 
     i = sub.add_parser("info", help="describe a result file")

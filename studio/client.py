@@ -88,10 +88,12 @@ class Client:
     def health(self) -> dict:
         return self._request("GET", "/api/health").json()
 
-    def submit(self, scene: Union[str, Path, dict, Any], name: Optional[str] = None) -> str:
+    def submit(self, scene: Union[str, Path, dict, Any], name: Optional[str] = None,
+               idempotency_key: Optional[str] = None) -> str:
         """Submit a scene: a path to a scene JSON file, a dict, JSON text or an
         ``engine.Scene``; returns the run id. Mesh shapes must name uploaded meshes
-        (:meth:`upload_mesh`)."""
+        (:meth:`upload_mesh`). ``idempotency_key``: the same key submitted again returns
+        the first run's id (safe to retry after a lost answer)."""
         if hasattr(scene, "to_json"):
             text = scene.to_json()
         elif isinstance(scene, dict):
@@ -102,8 +104,11 @@ class Client:
         else:
             text = str(scene)
         params = {"name": name} if name else None
+        headers = {"Content-Type": "application/json"}
+        if idempotency_key:
+            headers["Idempotency-Key"] = str(idempotency_key)
         r = self._request("POST", "/api/runs", content=text.encode(), params=params,
-                          headers={"Content-Type": "application/json"})
+                          headers=headers)
         return r.json()["id"]
 
     def get(self, run_id: str) -> dict:
@@ -115,6 +120,12 @@ class Client:
 
     def cancel(self, run_id: str) -> dict:
         return self._request("DELETE", f"/api/runs/{run_id}").json()
+
+    def purge(self, run_id: str) -> dict:
+        """Delete a run (cancelled first if it runs) and its files on the server:
+        ``{"id", "purged", "freed_bytes"}``."""
+        return self._request("DELETE", f"/api/runs/{run_id}",
+                             params={"purge": "true"}).json()
 
     def wait(self, run_id: str, progress: bool = True, poll: float = 0.5,
              timeout: Optional[float] = None) -> dict:

@@ -95,3 +95,17 @@ def write_scene(tmp_path):
         return path
 
     return write
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Say so when the browser suite (tests/e2e) was skipped, e.g. without chromium: a
+    skipped suite must not pass for a passed one."""
+    skipped = [r for r in terminalreporter.stats.get("skipped", [])
+               if "tests/e2e/" in str(getattr(r, "nodeid", "")).replace("\\", "/")
+               or "e2e" in str(getattr(r, "location", ("",))[0])]
+    if skipped:
+        reason = skipped[0].longrepr[2] if isinstance(skipped[0].longrepr, tuple) else ""
+        terminalreporter.write_line(
+            f"browser tests: {len(skipped)} skipped ({reason.removeprefix('Skipped: ')}); "
+            f"they need Debian's chromium (apt-get install chromium) and playwright",
+            yellow=True, bold=True)

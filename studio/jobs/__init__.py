@@ -48,12 +48,14 @@ from __future__ import annotations
 
 from ..studies.registry import (SCENE_OPTIONS, SERVER_OPTIONS, STUDIES, StudyOptionError,
                                 study_argv, study_options)
+from .limits import LimitError, Limits, planned_runs
 from .manager import JobManager
 from .meshes import DEFAULT_MAX_TRIANGLES, MESH_FORMATS, MESH_PREFIX, MeshError, MeshStore
-from .store import FINAL_STATUSES, STATUSES, JobInfo, JobStore, jsonable
+from .store import FINAL_STATUSES, STATUSES, JobInfo, JobStore, StorageError, jsonable
 from .worker import STUDY_LOG, cpu_count
 
-__all__ = ["JobManager", "JobInfo", "JobStore", "MeshStore", "MeshError", "STATUSES",
+__all__ = ["JobManager", "JobInfo", "JobStore", "StorageError", "Limits", "LimitError",
+           "planned_runs", "MeshStore", "MeshError", "STATUSES",
            "FINAL_STATUSES", "MESH_FORMATS", "MESH_PREFIX", "DEFAULT_MAX_TRIANGLES",
            "STUDIES", "SCENE_OPTIONS", "SERVER_OPTIONS", "STUDY_LOG", "StudyOptionError",
            "study_argv", "study_options", "jsonable", "cpu_count"]

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import sqlite3
 import sys
 import threading
 import time
@@ -20,9 +22,21 @@ from typing import Optional, Union
 
 from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
+from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
-from .store import FINAL_STATUSES, JobInfo, JobStore, _finite, jsonable
-from .worker import WorkerHandle, cpu_count, describe_exit
+from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
+                    storage_reason)
+from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
+
+#: below this much free space in the data folder, submits are refused (507) and health says
+#: ``degraded``: a run's files and the job database need room to record even a failure
+DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
+# a killed worker's result file up to this size is finalized before its job is reported
+FINALIZE_INLINE_BYTES = 64 * 1024 * 1024
+
+
+class _DuplicateKey(Exception):
+    """A job with this idempotency key was stored meanwhile."""
 
 
 class JobManager:
@@ -30,12 +44,16 @@ class JobManager:
 
     ``workers``: pool size (default one per core). ``cancel_grace_s``: how long a worker may
     take to honour a cancel before it is terminated. ``max_triangles``: the largest uploaded
-    mesh accepted by :meth:`add_mesh`.
+    mesh accepted by :meth:`add_mesh`. ``limits``: what one job may cost, how long it may
+    run and how many may wait (:class:`~.limits.Limits`; its defaults when not given).
+    ``min_free_bytes``: below this much free space in the data folder, submits are refused.
     """
 
     def __init__(self, data_dir: Union[str, Path], workers: Optional[int] = None, *,
                  cancel_grace_s: float = 5.0, max_triangles: int = DEFAULT_MAX_TRIANGLES,
-                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0):
+                 scheduler: Optional[str] = None, study_cancel_grace_s: float = 30.0,
+                 min_free_bytes: int = DEFAULT_MIN_FREE_BYTES,
+                 limits: Optional[Limits] = None):
         import multiprocessing as mp
 
         self.data_dir = Path(data_dir).resolve()
@@ -58,11 +76,18 @@ class JobManager:
         self.scheduler = scheduler  # study jobs' Dask scheduler (None: one local worker)
         self.study_cancel_grace_s = float(study_cancel_grace_s)
 
+        self.min_free_bytes = int(min_free_bytes)
+        self.limits = limits if limits is not None else Limits()
+        # storage trouble seen last (None: the last write succeeded), and the final states of
+        # jobs that could not be written yet (retried by the monitor until they are)
+        self._storage_problem: Optional[str] = None
+        self._pending_final: dict[str, dict] = {}
+        self._monitor_problem: Optional[str] = None
+
         self._lock_file = self._take_folder_lock()
         self._store = JobStore(self.data_dir, self.runs_dir)
         # the database connection and the worker table share one lock
-        self._lock, self._changed, self._db = (self._store.lock, self._store.changed,
-                                               self._store.db)
+        self._lock, self._changed = self._store.lock, self._store.changed
         self._meshes = MeshStore(self.meshes_dir, self._store, self.max_triangles)
 
         self._ctx = mp.get_context("spawn")
@@ -76,20 +101,37 @@ class JobManager:
                                          daemon=True)
         self._monitor.start()
 
+    @property
+    def _db(self):
+        return self._store.db
+
     # ------------------------------------------------------------------ public API
     def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
-               check_build: bool = True) -> str:
+               check_build: bool = False, idempotency_key: Optional[str] = None) -> str:
         """Queue a scene (an ``engine.Scene``, a dict or JSON text); returns the job id.
 
-        Raises ``engine.SceneError`` naming every bad field. Mesh shapes may name an uploaded
-        mesh as ``"mesh:<id>"``; with ``allow_files=False`` (the HTTP server) they must, and
-        no other file path is accepted. ``check_build`` also builds the scene here, so that
-        what only the build can see (an unreadable mesh, missing mass properties) is reported
-        now rather than as a failed job.
+        Raises ``engine.SceneError`` naming every bad field, :class:`~.limits.LimitError`
+        when the scene's estimated cost (``engine.estimate``: nodes, steps, frames, memory)
+        is over this manager's :attr:`limits` or the queue is full, and
+        :class:`~.store.StorageError` when it cannot be stored. Mesh shapes may name an
+        uploaded mesh as ``"mesh:<id>"``; with ``allow_files=False`` (the HTTP server) they
+        must, and no other file path is accepted. Nothing is built here (a huge scene would
+        hold this process); what only the build can see fails the job with the reason.
+        ``check_build`` builds it here all the same (small scenes, scripts).
+        ``idempotency_key``: a submit with a key already used returns that job's id and
+        queues nothing (a client's retry after a lost answer).
         """
         import engine
 
+        if idempotency_key is not None:
+            known = self.job_for_key(idempotency_key)
+            if known is not None:
+                return known
+
         scene = self._meshes.resolve_scene(scene, allow_files=allow_files)
+        cost = engine.estimate(scene, mesh_triangles=self._meshes.triangles_of)
+        check_cost(cost, self.limits)
+        self._check_queue()
         if check_build:
             engine.build(scene)
         if name is None or not str(name).strip():
@@ -97,17 +139,35 @@ class JobManager:
         name = str(name).strip()[:200]
         scene_json = scene.to_json()
         job_id = uuid.uuid4().hex[:12]
-        run_dir = self.runs_dir / job_id
-        run_dir.mkdir(parents=True, exist_ok=False)
-        (run_dir / "scene.json").write_text(scene_json + "\n")
-        with self._lock:
-            self._db.execute(
-                "INSERT INTO jobs (id, name, status, created, until, scene) "
-                "VALUES (?, ?, 'queued', ?, ?, ?)",
-                (job_id, name, time.time(), _finite(scene.run.duration), scene_json))
-            self._changed.notify_all()
-        self._wake()
+        try:
+            self._create_job(job_id, {"scene.json": scene_json + "\n"},
+                             "INSERT INTO jobs (id, name, status, created, until, scene, "
+                             "estimate, idempotency_key) VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
+                             (job_id, name, time.time(), _finite(scene.run.duration),
+                              scene_json, json.dumps(jsonable(cost.as_dict())),
+                              idempotency_key))
+        except _DuplicateKey:
+            return self.job_for_key(idempotency_key)
         return job_id
+
+    def job_for_key(self, key: str) -> Optional[str]:
+        """The job submitted with idempotency key ``key``, or None."""
+        with self._lock:
+            row = self._db.execute("SELECT id FROM jobs WHERE idempotency_key = ?",
+                                   (key,)).fetchone()
+        return row[0] if row else None
+
+    def _check_queue(self) -> None:
+        """:class:`LimitError` (429) when ``limits.max_queued`` jobs already wait."""
+        allowed = self.limits.max_queued
+        if allowed is None:
+            return
+        queued = self._store.counts()["queued"]
+        if queued >= allowed:
+            raise LimitError("max_queued", queued, allowed,
+                             f"{queued} jobs are waiting; this server queues at most {allowed} "
+                             f"(--max-queued): submit again later", 429,
+                             retry_after=30)
 
     def submit_study(self, study: str, options: Optional[dict] = None,
                      name: Optional[str] = None) -> str:
@@ -118,25 +178,135 @@ class JobManager:
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
         typed, argv = make_options(study, options, scheduler=self.scheduler)
+        runs = planned_runs(typed)
+        if self.limits.max_study_runs is not None and runs > self.limits.max_study_runs:
+            raise LimitError("max_study_runs", runs, self.limits.max_study_runs,
+                             f"the study plans up to {runs} runs; this server allows at most "
+                             f"{self.limits.max_study_runs} per study (--max-study-runs)", 422)
+        self._check_queue()
         resolved = options_to_dict(typed)
         if name is None or not str(name).strip():
             name = f"{study} study"
         name = str(name).strip()[:200]
         job_id = uuid.uuid4().hex[:12]
-        run_dir = self.runs_dir / job_id
-        (run_dir / "study").mkdir(parents=True, exist_ok=False)
         spec = {"study": study, "options": jsonable(options or {}), "argv": argv,
                 "resolved": resolved}
-        (run_dir / "study_job.json").write_text(json.dumps(spec, indent=1) + "\n")
-        with self._lock:
-            self._db.execute(
-                "INSERT INTO jobs (id, name, status, created, scene, kind, study, options, "
-                "argv, resolved) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?, ?)",
-                (job_id, name, time.time(), study, json.dumps(spec["options"]),
-                 json.dumps(argv), json.dumps(resolved)))
-            self._changed.notify_all()
-        self._wake()
+        self._create_job(job_id, {"study_job.json": json.dumps(spec, indent=1) + "\n",
+                                  "study/": None},
+                         "INSERT INTO jobs (id, name, status, created, scene, kind, study, "
+                         "options, argv, resolved, estimate) VALUES (?, ?, 'queued', ?, '', "
+                         "'study', ?, ?, ?, ?, ?)",
+                         (job_id, name, time.time(), study, json.dumps(spec["options"]),
+                          json.dumps(argv), json.dumps(resolved),
+                          json.dumps({"planned_runs": runs})))
         return job_id
+
+    def _create_job(self, job_id: str, files: dict, sql: str, args: tuple) -> None:
+        """Write a new job's folder (``files``: name -> text, a name ending in ``/`` a
+        folder) and its row. Nothing is left behind when either fails: the folder is removed
+        and :class:`StorageError` says why (a full disk: HTTP 507)."""
+        self.check_free_space()
+        run_dir = self.runs_dir / job_id
+        try:
+            run_dir.mkdir(parents=True, exist_ok=False)
+            for fname, text in files.items():
+                if fname.endswith("/"):
+                    (run_dir / fname).mkdir()
+                else:
+                    (run_dir / fname).write_text(text)
+            with self._lock:
+                self._db.execute(sql, args)
+                self._changed.notify_all()
+        except sqlite3.IntegrityError:  # the same idempotency key, submitted concurrently
+            shutil.rmtree(run_dir, ignore_errors=True)
+            raise _DuplicateKey() from None
+        except (OSError, sqlite3.Error) as exc:
+            shutil.rmtree(run_dir, ignore_errors=True)
+            reason = storage_reason(exc)
+            self._storage_failed(reason)
+            raise StorageError(f"the job could not be stored in {self.data_dir}: "
+                               f"{reason}") from exc
+        self._storage_ok()
+        self._wake()
+
+    def check_free_space(self) -> None:
+        """:class:`StorageError` when the data folder has less than ``min_free_bytes``
+        free."""
+        free = self.free_bytes()
+        if free is not None and free < self.min_free_bytes:
+            reason = (f"only {free / 2**20:.1f} MiB free in {self.data_dir} (at least "
+                      f"{self.min_free_bytes / 2**20:.0f} MiB are needed to run jobs)")
+            self._storage_failed(reason)
+            raise StorageError(reason)
+
+    def free_bytes(self) -> Optional[int]:
+        try:
+            return shutil.disk_usage(self.data_dir).free
+        except OSError:
+            return None
+
+    def health(self) -> dict:
+        """``{"status": "ok" | "degraded", "problems": [...]}``: degraded while workers are
+        missing, the monitor thread is down, storage failed last time it was written, or the
+        data folder is short of space."""
+        problems = []
+        with self._lock:
+            alive = sum(1 for w in self._workers if w.process.is_alive())
+            pending = sorted(self._pending_final)
+            storage = self._storage_problem
+            monitor = self._monitor_problem
+        if not self._monitor.is_alive() and not self._closing:
+            problems.append("the job monitor thread has stopped: no job will start")
+        elif monitor:
+            problems.append(f"the job monitor hit an error: {monitor}")
+        if alive < self.n_workers:
+            problems.append(f"{alive} of {self.n_workers} worker process(es) alive")
+        if storage:
+            problems.append(f"storage: {storage}")
+        if pending:
+            problems.append(f"{len(pending)} finished job(s) not yet written to the database "
+                            f"({', '.join(pending[:5])})")
+        free = self.free_bytes()
+        if free is not None and free < self.min_free_bytes and not storage:
+            problems.append(f"storage: only {free / 2**20:.1f} MiB free in {self.data_dir}")
+        return {"status": "degraded" if problems else "ok", "problems": problems,
+                "free_bytes": free}
+
+    def _storage_failed(self, reason: str) -> None:
+        with self._lock:
+            self._storage_problem = reason
+
+    def _storage_ok(self) -> None:
+        with self._lock:
+            self._storage_problem = None
+
+    def _update(self, job_id: str, **values) -> bool:
+        """Write a job's state; on a storage error note it (health) and return False."""
+        try:
+            self._store.update(job_id, **values)
+        except StorageError as exc:
+            self._storage_failed(str(exc))
+            return False
+        if self._storage_problem is not None and not self._pending_final:
+            self._storage_ok()
+        return True
+
+    def _finish(self, job_id: str, **values) -> None:
+        """Write a job's final state; if storage fails, keep it and retry from the monitor
+        until it is written (the job is reported with it meanwhile)."""
+        if not self._update(job_id, **values):
+            with self._lock:
+                self._pending_final[job_id] = values
+
+    def _flush_pending(self) -> None:
+        with self._lock:
+            pending = list(self._pending_final.items())
+        for job_id, values in pending:
+            if self._update(job_id, **values):
+                with self._lock:
+                    self._pending_final.pop(job_id, None)
+        if pending and not self._pending_final:
+            self._storage_ok()
 
     def study_dir(self, job_id: str) -> Path:
         """A study job's output folder (KeyError if unknown or not a study)."""
@@ -158,13 +328,24 @@ class JobManager:
 
     def get(self, job_id: str) -> JobInfo:
         """The job's state; KeyError if there is no such job."""
-        return self._store.get(job_id)
+        return self._overlay(self._store.get(job_id))
 
     def list(self, status: Optional[str] = None, limit: Optional[int] = None,
              kind: Optional[str] = None) -> list[JobInfo]:
         """All jobs (or those with ``status``, of ``kind`` "run" or "study"), newest
         first."""
-        return self._store.list(status, limit, kind)
+        return [self._overlay(i) for i in self._store.list(status, limit, kind)]
+
+    def _overlay(self, info: JobInfo) -> JobInfo:
+        """A job whose final state could not be written yet is shown with it."""
+        with self._lock:
+            values = self._pending_final.get(info.id)
+        if not values:
+            return info
+        import dataclasses
+
+        known = {f.name for f in dataclasses.fields(JobInfo)}
+        return dataclasses.replace(info, **{k: v for k, v in values.items() if k in known})
 
     def cancel(self, job_id: str, wait: float = 1.5) -> JobInfo:
         """Cancel a queued or running job (a finished one is left as it is). A running job's
@@ -174,6 +355,14 @@ class JobManager:
         if info.done:
             return info
         now = time.time()
+        try:
+            return self._cancel(job_id, now, wait)
+        except sqlite3.Error as exc:
+            reason = f"the job database could not be written: {storage_reason(exc)}"
+            self._storage_failed(reason)
+            raise StorageError(reason) from exc
+
+    def _cancel(self, job_id: str, now: float, wait: float) -> JobInfo:
         with self._lock:
             cur = self._db.execute(
                 "UPDATE jobs SET status = 'cancelled', finished = ?, error = ? "
@@ -193,6 +382,32 @@ class JobManager:
             return self.wait(job_id, timeout=wait)
         except TimeoutError:
             return self.get(job_id)
+
+    def purge(self, job_id: str, wait: float = 10.0) -> dict:
+        """Delete a job and its files (its folder under ``runs/``: result, scene, a study's
+        outputs); a queued or running job is cancelled first. Returns ``{"id", "purged":
+        True, "freed_bytes"}``; KeyError if unknown, :class:`StorageError` if the folder
+        cannot be removed, RuntimeError if the job does not stop within ``wait`` s."""
+        info = self.get(job_id)
+        if not info.done:
+            self.cancel(job_id, wait=wait)
+            info = self.get(job_id)
+            if not info.done:
+                raise RuntimeError(f"job {job_id} is still {info.status}: it did not stop "
+                                   f"within {wait:g} s; purge it again later")
+        folder = self.runs_dir / job_id
+        freed = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) \
+            if folder.is_dir() else 0
+        try:
+            shutil.rmtree(folder, ignore_errors=False) if folder.exists() else None
+            with self._lock:
+                self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
+                self._pending_final.pop(job_id, None)
+                self._changed.notify_all()
+        except (OSError, sqlite3.Error) as exc:
+            raise StorageError(f"job {job_id} could not be purged: "
+                               f"{storage_reason(exc)}") from exc
+        return {"id": job_id, "purged": True, "freed_bytes": freed}
 
     def result_path(self, job_id: str) -> Path:
         """The job's HDF5 result file (it may not exist yet, or be partial while the job
@@ -297,9 +512,11 @@ class JobManager:
                     closing = self._closing
                 if closing:
                     break
-                self._keep_pool()
-                self._dispatch()
-                self._enforce_cancels()
+                # each step on its own: an error in one (a full disk, a worker that cannot
+                # start) is reported in health and retried, and never stops the others
+                for step in (self._flush_pending, self._keep_pool, self._dispatch,
+                             self._enforce_cancels, self._retain):
+                    self._guarded(step)
                 with self._lock:
                     workers = list(self._workers)
                 waitables = [self._wake_r]
@@ -313,13 +530,43 @@ class JobManager:
                         pass
                 for w in workers:
                     if w.conn in ready:
-                        self._drain(w)
+                        self._guarded(self._drain, w)
                     if w.process.sentinel in ready:
-                        self._on_death(w)
-        except Exception:  # keep the manager usable and say why, rather than die silently
-            traceback.print_exc()
+                        self._guarded(self._on_death, w)
         finally:
             self._shutdown_workers()
+
+    def _retain(self) -> None:
+        """Purge finished jobs older than ``limits.keep_days`` (checked once a minute)."""
+        days = self.limits.keep_days
+        now = time.monotonic()
+        if days is None or now < getattr(self, "_next_retain", 0.0):
+            return
+        self._next_retain = now + 60.0
+        cutoff = time.time() - days * 86400.0
+        with self._lock:
+            rows = self._db.execute(
+                "SELECT id FROM jobs WHERE status IN ('completed', 'stopped', 'failed', "
+                "'cancelled') AND finished IS NOT NULL AND finished < ?", (cutoff,)).fetchall()
+        for (job_id,) in rows:
+            self.purge(job_id)
+
+    def _guarded(self, step, *args) -> None:
+        """Run one step of the monitor loop; an exception is printed once per kind, shown
+        by :meth:`health` and does not end the loop (a pause keeps it from spinning)."""
+        try:
+            step(*args)
+        except Exception as exc:
+            reason = f"{type(exc).__name__}: {exc}"
+            if self._monitor_problem != reason:
+                traceback.print_exc()
+            with self._lock:
+                self._monitor_problem = reason
+            time.sleep(0.2)
+        else:
+            if self._monitor_problem is not None and step == self._dispatch:
+                with self._lock:
+                    self._monitor_problem = None
 
     def _keep_pool(self) -> None:
         with self._lock:
@@ -327,7 +574,12 @@ class JobManager:
         if missing <= 0 or time.monotonic() < self._respawn_after:
             return
         for _ in range(missing):
-            w = WorkerHandle(self._ctx, self.threads_per_worker)
+            try:
+                w = WorkerHandle(self._ctx, self.threads_per_worker)
+            except OSError as exc:  # no memory, no file descriptors: try again later
+                self._respawn_after = time.monotonic() + 2.0
+                raise RuntimeError(f"a worker process could not be started: "
+                                   f"{storage_reason(exc)}") from exc
             with self._lock:
                 self._workers.append(w)
 
@@ -342,27 +594,40 @@ class JobManager:
                 if row is None:
                     return
                 seq, job_id, scene_json, kind, study, argv, resolved = row
-                cur = self._db.execute(
-                    "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
-                    "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
+                try:
+                    cur = self._db.execute(
+                        "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
+                        "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
+                except sqlite3.Error as exc:  # the job stays queued; tried again next turn
+                    reason = f"the job database could not be written: {storage_reason(exc)}"
+                    self._storage_failed(reason)
+                    raise StorageError(reason) from exc
                 if not cur.rowcount:
                     continue
                 w.job_id, w.seq, w.cancel_at = job_id, seq, None
+                w.started_at, w.over_limit = time.monotonic(), None
                 w.grace = self.study_cancel_grace_s if kind == "study" else \
                     self.cancel_grace_s
                 self._changed.notify_all()
-            if kind == "study":
-                out = self.runs_dir / job_id / "study"
-                out.mkdir(parents=True, exist_ok=True)
-                argv = json.loads(argv or "[]") + ["--output", str(out)]
-                argv += ["--scheduler", self.scheduler] if self.scheduler else \
-                    ["--workers", "1"]
-                msg = ("study", seq, job_id, study, self._study_options(job_id, study, resolved),
-                       argv, str(out))
-            else:
-                h5 = self.runs_dir / job_id / "result.h5"
-                h5.parent.mkdir(parents=True, exist_ok=True)
-                msg = ("run", seq, job_id, scene_json, str(h5))
+            try:
+                if kind == "study":
+                    out = self.runs_dir / job_id / "study"
+                    out.mkdir(parents=True, exist_ok=True)
+                    argv = json.loads(argv or "[]") + ["--output", str(out)]
+                    argv += ["--scheduler", self.scheduler] if self.scheduler else \
+                        ["--workers", "1"]
+                    msg = ("study", seq, job_id, study,
+                           self._study_options(job_id, study, resolved), argv, str(out))
+                else:
+                    h5 = self.runs_dir / job_id / "result.h5"
+                    h5.parent.mkdir(parents=True, exist_ok=True)
+                    msg = ("run", seq, job_id, scene_json, str(h5))
+            except Exception as exc:  # its folder cannot be written, its options are gone
+                with self._lock:
+                    w.job_id = w.seq = w.cancel_at = None
+                self._finish(job_id, status="failed", finished=time.time(), eta_s=None,
+                             error=f"the job could not be started: {storage_reason(exc)}")
+                continue
             try:
                 w.conn.send(msg)
             except (OSError, ValueError):
@@ -401,14 +666,14 @@ class JobManager:
         if job_id != w.job_id:
             return
         if kind == "built":
-            self._store.update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
+            self._update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
                          until=data["until"], sim_time=data["sim_time"],
                          assembled=data["assembled"], warnings=data["warnings"])
         elif kind == "study_progress":
-            self._store.update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
+            self._update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
                          message=str(data.get("message") or "")[:300])
         elif kind == "progress":
-            self._store.update(job_id, sim_time=data["sim_time"], until=data["until"],
+            self._update(job_id, sim_time=data["sim_time"], until=data["until"],
                          progress=min(max(float(data["progress"]), 0.0), 1.0),
                          steps_per_s=data["steps_per_s"], eta_s=data["eta_s"])
         elif kind == "done":
@@ -418,6 +683,8 @@ class JobManager:
             if status == "cancelled" and error is None:
                 error = ("interrupted: the job manager was closed" if self._closing
                          else "cancelled")
+            if w.over_limit and status == "cancelled":
+                status, error = "failed", w.over_limit
             values = dict(status=status, finished=data["finished"], summary=summary,
                           stages=summary.get("stages") or {}, error=error, eta_s=0.0
                           if status in ("completed", "stopped") else None)
@@ -428,9 +695,9 @@ class JobManager:
             if summary.get("warnings"):
                 values["warnings"] = list(self.get(job_id).warnings) + [
                     x for x in summary["warnings"] if x not in self.get(job_id).warnings]
-            self._store.update(job_id, **values)
             with self._lock:
                 w.job_id = w.seq = w.cancel_at = None
+            self._finish(job_id, **values)
 
     def _on_death(self, w: WorkerHandle) -> None:
         self._drain(w)  # what it sent before dying
@@ -444,15 +711,30 @@ class JobManager:
         if job_id is not None:
             cancel_requested = w.cancel_at is not None
             reason = describe_exit(code)
-            if cancel_requested:
+            if w.over_limit:
+                status, error = "failed", w.over_limit
+            elif cancel_requested:
                 status, error = "cancelled", (f"cancelled: the worker process (pid {w.pid}) "
                                               f"did not stop in time and was ended ({reason})")
             else:
                 status, error = "failed", (f"the worker process (pid {w.pid}) died while "
                                            f"running this job ({reason}); the result file "
                                            f"keeps the frames recorded before")
-            self._store.update(job_id, status=status, finished=time.time(), error=error,
-                         eta_s=None)
+            # its result file: from "running" and open-for-writing to the job's status (a
+            # copy of the file: before the job is reported finished when it is small, so
+            # that a client downloading it then gets the final file; in the background
+            # when it is large, not to hold the dispatcher)
+            h5 = self.runs_dir / job_id / "result.h5"
+            try:
+                size = h5.stat().st_size
+            except OSError:
+                size = None
+            if size is not None and size <= FINALIZE_INLINE_BYTES:
+                finalize_killed_result(h5, status, error)
+            elif size is not None:
+                threading.Thread(target=finalize_killed_result, args=(h5, status, error),
+                                 name="finalize-result", daemon=True).start()
+            self._finish(job_id, status=status, finished=time.time(), error=error, eta_s=None)
         if not w.ready:  # died while starting: say so, and do not respawn in a tight loop
             self._start_failures += 1
             delay = min(2.0 * 2 ** (self._start_failures - 1), 60.0)
@@ -470,7 +752,17 @@ class JobManager:
 
     def _enforce_cancels(self) -> None:
         now = time.monotonic()
+        limit = self.limits.max_job_seconds
         with self._lock:
+            if limit is not None:
+                for w in self._workers:
+                    if w.job_id is not None and w.cancel_at is None and w.started_at is not \
+                            None and now - w.started_at > limit and w.seq is not None:
+                        w.over_limit = (f"stopped: the job ran longer than this server's "
+                                        f"wall-time limit of {limit:g} s (--max-job-seconds); "
+                                        f"the result file keeps the frames recorded before")
+                        w.cancel_seq.value = w.seq
+                        w.cancel_at = now
             late = [w for w in self._workers if w.job_id is not None
                     and w.cancel_at is not None and now - w.cancel_at > w.grace]
         for w in late:
@@ -492,7 +784,7 @@ class JobManager:
             job_id = w.job_id
             w.stop()
             if job_id is not None:
-                self._store.update(job_id, status="cancelled", finished=time.time(),
+                self._finish(job_id, status="cancelled", finished=time.time(),
                              error="interrupted: the job manager was closed while this job "
                                    "ran")
         with self._lock:

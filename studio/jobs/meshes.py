@@ -8,11 +8,12 @@ import io
 import json
 import os
 import re
+import sqlite3
 import threading
 import time
 from pathlib import Path
 
-from .store import jsonable
+from .store import StorageError, jsonable, storage_reason
 
 MESH_FORMATS = ("stl", "obj", "ply")
 MESH_PREFIX = "mesh:"
@@ -29,12 +30,32 @@ class MeshError(ValueError):
         self.status = status
 
 
+def quick_triangle_count(data: bytes, fmt: str):
+    """Triangles of a mesh file counted without parsing it (C-speed byte searches, about
+    10 ms for 40 MB), so that an oversized upload is refused before trimesh spends seconds
+    and gigabytes on it; None when the format gives no cheap count. At least the number
+    of triangles the file holds (a polygon face counts as one: its fan is checked after
+    parsing)."""
+    import re
+
+    if fmt == "stl":
+        if not data[:512].lstrip().lower().startswith(b"solid") and len(data) >= 84:
+            return int.from_bytes(data[80:84], "little")  # binary STL: its header says
+        return data.count(b"facet")
+    if fmt == "obj":
+        return data.count(b"\nf ") + data.count(b"\nf\t") + int(data.startswith(b"f "))
+    if fmt == "ply":
+        m = re.search(rb"element\s+face\s+(\d+)", data[:4096])
+        return int(m.group(1)) if m else None
+    return None
+
+
 class MeshStore:
     """The uploaded meshes of ``meshes_dir``, listed in ``store``'s database."""
 
     def __init__(self, meshes_dir: Path, store, max_triangles: int = DEFAULT_MAX_TRIANGLES):
         self.meshes_dir = Path(meshes_dir)
-        self._db, self._lock = store.db, store.lock
+        self._store, self._lock = store, store.lock
         self.max_triangles = int(max_triangles)
 
     def add_mesh(self, data: bytes, filename: str) -> dict:
@@ -42,15 +63,20 @@ class MeshStore:
         ``ref`` (``"mesh:<id>"``, what a scene's mesh shape names as ``file``). Raises
         :class:`MeshError` for an unknown format, an unreadable or empty mesh, non-finite
         coordinates, or more than ``max_triangles`` triangles."""
-        import numpy as np
-        import trimesh
-
         fmt = Path(str(filename or "")).suffix.lower().lstrip(".")
         if fmt not in MESH_FORMATS:
             raise MeshError(f"file name {filename!r}: the format is taken from the extension, "
                             f"one of {', '.join('.' + f for f in MESH_FORMATS)}")
         if not data:
             raise MeshError("the uploaded file is empty")
+        counted = quick_triangle_count(data, fmt)
+        if counted is not None and counted > self.max_triangles:
+            raise MeshError(f"has {counted} triangles (counted before parsing); at most "
+                            f"{self.max_triangles} are allowed (decimate the mesh)",
+                            status=413)
+        import numpy as np
+        import trimesh
+
         try:
             loaded = trimesh.load(io.BytesIO(data), file_type=fmt, force="mesh",
                                   process=False)
@@ -77,19 +103,24 @@ class MeshStore:
                 "watertight": bool(trimesh.Trimesh(vertices, faces).is_watertight),
                 "bytes": len(data)}
         path = self.meshes_dir / f"{mesh_id}.{fmt}"
-        if not path.exists():
-            tmp = path.with_suffix(f".tmp{os.getpid()}.{threading.get_ident()}")
-            tmp.write_bytes(data)
-            os.replace(tmp, path)
-        with self._lock:
-            self._db.execute("INSERT OR IGNORE INTO meshes (id, filename, format, created, "
-                             "info) VALUES (?, ?, ?, ?, ?)",
-                             (mesh_id, info["filename"], fmt, time.time(), json.dumps(info)))
+        tmp = path.with_suffix(f".tmp{os.getpid()}.{threading.get_ident()}")
+        try:
+            if not path.exists():
+                tmp.write_bytes(data)
+                os.replace(tmp, path)
+            with self._lock:
+                self._store.db.execute(
+                    "INSERT OR IGNORE INTO meshes (id, filename, format, created, info) "
+                    "VALUES (?, ?, ?, ?, ?)",
+                    (mesh_id, info["filename"], fmt, time.time(), json.dumps(info)))
+        except (OSError, sqlite3.Error) as exc:
+            tmp.unlink(missing_ok=True)
+            raise StorageError(f"the mesh could not be stored: {storage_reason(exc)}") from exc
         return info
 
     def list_meshes(self) -> list[dict]:
         with self._lock:
-            rows = self._db.execute("SELECT info FROM meshes ORDER BY created DESC").fetchall()
+            rows = self._store.db.execute("SELECT info FROM meshes ORDER BY created DESC").fetchall()
         return [json.loads(r[0]) for r in rows]
 
     def mesh_path(self, mesh_id: str) -> Path:
@@ -97,7 +128,7 @@ class MeshStore:
         if not isinstance(mesh_id, str) or not _MESH_ID.match(mesh_id):
             raise KeyError(mesh_id)
         with self._lock:
-            row = self._db.execute("SELECT format FROM meshes WHERE id = ?",
+            row = self._store.db.execute("SELECT format FROM meshes WHERE id = ?",
                                    (mesh_id,)).fetchone()
         if row is None:
             raise KeyError(mesh_id)
@@ -105,6 +136,16 @@ class MeshStore:
         if not path.is_file():
             raise KeyError(mesh_id)
         return path
+
+    def triangles_of(self, file: str):
+        """Triangles of a stored upload named by its path (None for other files)."""
+        path = Path(file)
+        if path.parent != self.meshes_dir:
+            return None
+        with self._lock:
+            row = self._store.db.execute("SELECT info FROM meshes WHERE id = ?",
+                                         (path.stem,)).fetchone()
+        return json.loads(row[0]).get("triangles") if row else None
 
     # ------------------------------------------------------------------ internals
     def resolve_scene(self, scene, *, allow_files: bool):

@@ -24,6 +24,19 @@ FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
 _JOB_ID = re.compile(r"^[0-9a-f]{12}$")
 
 
+class StorageError(RuntimeError):
+    """The job database or a job's folder could not be written (a full disk, a read-only or
+    vanished data folder): the message says what was being written and why it failed."""
+
+
+def storage_reason(exc: BaseException) -> str:
+    """One line for a storage failure: the OS's or SQLite's own words."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f" ({exc.filename})" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    return f"{type(exc).__name__}: {exc}"
+
+
 # ----------------------------------------------------------------------------- job info
 @dataclass
 class JobInfo:
@@ -54,6 +67,7 @@ class JobInfo:
     options: dict = field(default_factory=dict)  # a study job's options, as submitted
     message: Optional[str] = None     # a study job's progress text (its current bar)
     files: list = field(default_factory=list)    # a study job's output files (relative)
+    estimate: dict = field(default_factory=dict)  # its cost estimated at submit
 
     @property
     def done(self) -> bool:
@@ -66,13 +80,14 @@ class JobInfo:
 _COLUMNS = ("id", "name", "status", "created", "started", "finished", "progress", "sim_time",
             "until", "steps_per_s", "eta_s", "dt", "dt_limited_by", "stages", "summary",
             "error", "worker_pid", "assembled", "warnings", "kind", "study", "options",
-            "message")
+            "message", "estimate")
 _JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings": list,
-                 "options": dict}
+                 "options": dict, "estimate": dict}
 # columns added after the first release: added to an older database when it is opened
 _ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
                   ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
-                  ("message", "TEXT"), ("resolved", "TEXT"))
+                  ("message", "TEXT"), ("resolved", "TEXT"), ("estimate", "TEXT"),
+                  ("idempotency_key", "TEXT"))
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -133,6 +148,8 @@ class JobStore:
             for col, decl in _ADDED_COLUMNS:
                 if col not in have:
                     self.db.execute(f"ALTER TABLE jobs ADD COLUMN {col} {decl}")
+            self.db.execute("CREATE UNIQUE INDEX IF NOT EXISTS jobs_idempotency_key ON jobs "
+                            "(idempotency_key) WHERE idempotency_key IS NOT NULL")
             self.recover()
 
     def close(self) -> None:
@@ -227,6 +244,8 @@ class JobStore:
         return JobInfo(**d)
 
     def update(self, job_id: str, **values) -> None:
+        """Write ``values`` into the job's row; :class:`StorageError` if the database cannot
+        be written (a full disk), with the database's reason."""
         cols = []
         args = []
         for k, v in values.items():
@@ -237,6 +256,10 @@ class JobStore:
             cols.append(f"{k} = ?")
             args.append(v)
         with self.lock:
-            self.db.execute(f"UPDATE jobs SET {', '.join(cols)} WHERE id = ?",
-                             (*args, job_id))
+            try:
+                self.db.execute(f"UPDATE jobs SET {', '.join(cols)} WHERE id = ?",
+                                (*args, job_id))
+            except sqlite3.Error as exc:
+                raise StorageError(f"the job database could not be written: "
+                                   f"{storage_reason(exc)}") from exc
             self.changed.notify_all()

@@ -47,6 +47,10 @@ def _study_files(folder: Path) -> list[str]:
     return study_files(folder)
 
 
+def _os_reason(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
 def _tail(path: Path, n: int = 12) -> str:
     try:
         lines = path.read_text(errors="replace").splitlines()
@@ -134,6 +138,9 @@ def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) 
         error = str(exc)
     except engine.BrushStudioError as exc:
         error = f"{type(exc).__name__}: {exc}"
+    except OSError as exc:  # the result file cannot be written: a full disk, most often
+        error = (f"storage error: the result file {h5_path} could not be written "
+                 f"({_os_reason(exc)}); the frames written before are kept")
     except Exception as exc:  # report any bug with its traceback; the worker goes on
         error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
     conn.send(("done", job_id, {"status": status, "summary": jsonable(summary),
@@ -230,6 +237,8 @@ class WorkerHandle:
         self.seq: Optional[int] = None
         self.cancel_at: Optional[float] = None  # monotonic time a cancel was requested
         self.grace: float = 5.0  # how long the running job may take to honour a cancel
+        self.started_at: Optional[float] = None  # monotonic time the running job started
+        self.over_limit: Optional[str] = None  # why the running job was stopped by a limit
 
     @property
     def pid(self) -> Optional[int]:
@@ -248,3 +257,37 @@ class WorkerHandle:
             self.process.kill()
             self.process.join(2.0)
         self.conn.close()
+
+
+def finalize_killed_result(path: Path, status: str, message: str) -> bool:
+    """Make the result file of a job whose worker died a plain, finished HDF5 file with the
+    job's status: a killed writer leaves it marked open-for-SWMR-writing (plain
+    ``h5py.File(p, "r")`` refuses it) with ``status = "running"``. Its objects are copied
+    into a new file with ``status`` and ``error = {"type": "WorkerDied", "message"}``, which
+    then replaces it (atomically: readers see the old or the new file). Returns False (and
+    leaves the file as it is; ``engine.open_result`` reads it) when it cannot."""
+    import h5py
+
+    from engine.recorder import _text, json_text
+
+    path = Path(path)
+    if not path.is_file():
+        return False
+    tmp = path.with_name(path.name + ".finalizing")
+    try:
+        with h5py.File(path, "r", swmr=True, locking=False) as src, \
+                h5py.File(tmp, "w", libver="latest", locking=False) as dst:
+            for key in src.attrs:
+                dst.attrs.create(key, src.attrs[key], dtype=src.attrs.get_id(key).dtype)
+            for name in src:
+                src.copy(src[name], dst, name=name)
+            dst.attrs["status"] = _text(status)
+            dst.attrs["error"] = _text(json_text({"type": "WorkerDied", "message": message}))
+        os.replace(tmp, path)
+        return True
+    except Exception:  # a file killed while it was set up, a full disk: leave it
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        return False

@@ -33,7 +33,7 @@ import secrets
 from typing import Iterable, Optional
 
 from ..jobs import JobManager
-from .common import BodyLimit
+from .common import BodyLimit, RequestGuard
 from .library import library_router
 from .runs import MAX_SERIES_POINTS, runs_router  # noqa: F401  (the series limit)
 from .studies import studies_router
@@ -46,11 +46,16 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                cors_origins: Iterable[str] = (),
                max_body_bytes: int = DEFAULT_MAX_BODY_BYTES,
                max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES,
-               allow_files: bool = False):
+               allow_files: bool = False,
+               allowed_hosts: Optional[Iterable[str]] = None):
     """The FastAPI app over ``jobs``. ``token``: require ``Authorization: Bearer <token>``
     on every ``/api`` route but ``/api/health``. ``cors_origins``: origins allowed to call
     the API from a browser (none by default). ``allow_files``: let scenes name server-side
-    mesh files (off: only ``mesh:<id>`` references to uploads)."""
+    mesh files (off: only ``mesh:<id>`` references to uploads). ``allowed_hosts``: the
+    names a request's ``Host`` may give (the bound address and its loopback aliases; None:
+    not checked). Requests that change something from a browser page of another origin
+    are refused (403), and JSON endpoints take ``application/json`` only (415): see
+    :class:`~.common.RequestGuard`."""
     from fastapi import Depends, FastAPI, HTTPException
     from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
@@ -76,6 +81,25 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
 
     guarded = [Depends(auth)]
 
+    from fastapi.responses import JSONResponse
+
+    from ..jobs import StorageError
+
+    @app.exception_handler(StorageError)
+    async def storage_error(request, exc: StorageError):
+        # 507 Insufficient Storage: the request was fine, the server's disk was not
+        return JSONResponse(status_code=507, content={"detail": str(exc)})
+
+    from ..jobs import LimitError
+
+    @app.exception_handler(LimitError)
+    async def limit_error(request, exc: LimitError):
+        # 413: the scene does not fit; 422: it would not end in time; 429: the queue is full
+        headers = {"Retry-After": str(exc.retry_after)} if exc.retry_after else None
+        return JSONResponse(status_code=exc.status, headers=headers,
+                            content={"detail": [exc.as_dict()], "message": str(exc),
+                                     "limit": exc.limit})
+
     app.include_router(runs_router(jobs, guarded, allow_files=allow_files))
     app.include_router(studies_router(jobs, guarded))
     app.include_router(library_router(jobs, guarded, max_upload_bytes=max_upload_bytes))
@@ -84,6 +108,9 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                        max_upload=int(max_upload_bytes) + 64 * 1024,  # + multipart framing
                        upload_paths=("/api/meshes",))
     origins = [o for o in cors_origins if o]
+    app.add_middleware(RequestGuard, allowed_hosts=allowed_hosts, cors_origins=origins,
+                       json_paths=("/api/runs", "/api/studies"), token=token,
+                       open_paths=("/api/health",))
     if origins:
         from fastapi.middleware.cors import CORSMiddleware
 

@@ -112,3 +112,108 @@ def scene_error(exc):
         "message": f"invalid scene: {len(problems)} problem(s): " +
                    "; ".join(f"{p['field']} = {p['value']!r}: {p['allowed']}"
                              for p in problems)})
+
+
+def host_name(value: str) -> str:
+    """The host of a ``Host`` header or of an origin's authority, lower case, without the
+    port and without IPv6 brackets."""
+    value = value.strip().lower()
+    if value.startswith("["):
+        return value[1:value.find("]")] if "]" in value else value[1:]
+    return value.rsplit(":", 1)[0] if value.count(":") == 1 else value
+
+
+class RequestGuard:
+    """Pure ASGI middleware against cross-site requests from a browser page (CSRF) and DNS
+    rebinding, in front of every route:
+
+    * ``Host`` must name this server (``allowed_hosts``; ``None``: not checked), so that a
+      page on a rebound name (``http://evil.example:8000``) cannot read the API: 421;
+    * a request that changes something (POST, PUT, PATCH, DELETE) sent with an ``Origin``
+      must come from this server's own origin (scheme-less ``host:port`` equal to ``Host``)
+      or one of ``cors_origins``: 403 otherwise (a page elsewhere cannot queue jobs);
+    * the JSON endpoints (``json_paths``) take ``application/json`` bodies only: 415 for
+      ``text/plain`` and the form types a page can send without a preflight.
+    """
+
+    UNSAFE = ("POST", "PUT", "PATCH", "DELETE")
+
+    def __init__(self, app, allowed_hosts, cors_origins, json_paths: tuple[str, ...],
+                 token: Optional[str] = None, open_paths: tuple[str, ...] = ()):
+        self.app = app
+        self.token = token
+        self.open_paths = open_paths
+        self.allowed_hosts = (None if allowed_hosts is None
+                              else {host_name(h) for h in allowed_hosts})
+        self.cors_origins = {o.rstrip("/").lower() for o in cors_origins}
+        self.json_paths = json_paths
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        headers = {k.decode("latin-1").lower(): v.decode("latin-1")
+                   for k, v in scope.get("headers", ())}
+        host = headers.get("host", "")
+        if self.allowed_hosts is not None and host_name(host) not in self.allowed_hosts:
+            return await BodyLimit._reply(
+                send, 421, f"Host {host!r} is not a name of this server (allowed: "
+                           f"{sorted(self.allowed_hosts)}; add one with --allow-host)")
+        method = scope["method"]
+        origin = headers.get("origin")
+        if method in self.UNSAFE and origin is not None:
+            o = origin.rstrip("/").lower()
+            authority = o.split("://", 1)[1] if "://" in o else None
+            if o not in self.cors_origins and (authority is None
+                                               or authority != host.strip().lower()):
+                return await BodyLimit._reply(
+                    send, 403, f"cross-site request refused: Origin {origin!r} is not this "
+                               f"server's origin nor an allowed one (--cors ORIGIN)")
+        path = scope["path"]
+        if self.token is not None and path.startswith("/api") and path not in self.open_paths:
+            # the bearer token before anything reads the body (an unauthenticated 56 MB
+            # upload was read in full before its 401); the routes check it again
+            import secrets
+
+            given = headers.get("authorization", "")
+            scheme, _, credentials = given.partition(" ")
+            if scheme.lower() != "bearer" or not secrets.compare_digest(
+                    credentials.strip().encode(), self.token.encode()):
+                body = json.dumps({"detail": "missing or wrong bearer token (send "
+                                             "'Authorization: Bearer <token>')"}).encode()
+                await send({"type": "http.response.start", "status": 401,
+                            "headers": [(b"content-type", b"application/json"),
+                                        (b"content-length", str(len(body)).encode()),
+                                        (b"www-authenticate", b"Bearer"),
+                                        (b"connection", b"close")]})
+                await send({"type": "http.response.body", "body": body})
+                return
+        if method in ("POST", "PUT", "PATCH") and path in self.json_paths:
+            ctype = headers.get("content-type", "").split(";", 1)[0].strip().lower()
+            if ctype != "application/json" and not (ctype.startswith("application/")
+                                                    and ctype.endswith("+json")):
+                return await BodyLimit._reply(
+                    send, 415, f"Content-Type {ctype or '(none)'!r}: this endpoint takes "
+                               f"application/json")
+        return await self.app(scope, receive, send)
+
+
+MAX_JSON_DEPTH = 64  # a scene nests 6 deep; far deeper is an attack on the parser
+
+
+def json_body(raw: bytes):
+    """A request body parsed as JSON; ValueError (with the reason) for bad JSON or JSON
+    nested deeper than ``MAX_JSON_DEPTH`` (which would exhaust Python's recursion in the
+    checks after the parser: a RecursionError, a 500)."""
+    try:
+        data = json.loads(raw)
+    except RecursionError:
+        raise ValueError(f"nested deeper than {MAX_JSON_DEPTH} levels") from None
+    stack = [(data, 1)]  # an iterative walk: no recursion of its own
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, (dict, list)):
+            if depth > MAX_JSON_DEPTH:
+                raise ValueError(f"nested deeper than {MAX_JSON_DEPTH} levels")
+            items = value.values() if isinstance(value, dict) else value
+            stack.extend((v, depth + 1) for v in items if isinstance(v, (dict, list)))
+    return data

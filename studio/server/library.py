@@ -76,7 +76,9 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
     def health():
         """Open without a token (for health checks): version, workers, jobs per status."""
         alive = jobs.workers_info()
-        return {"status": "ok", "version": __version__, "workers": jobs.n_workers,
+        state = jobs.health()
+        return {"status": state["status"], "problems": state["problems"],
+                "free_bytes": state["free_bytes"], "version": __version__, "workers": jobs.n_workers,
                 "threads_per_worker": jobs.threads_per_worker, "workers_alive": len(alive),
                 "worker_processes": [{k: w[k] for k in ("pid", "ready", "numba_threads")}
                                      for w in alive],

@@ -6,7 +6,7 @@ import json
 from typing import Optional
 
 from ..jobs import FINAL_STATUSES, STATUSES, JobManager, jsonable
-from .common import non_finite_paths, not_found_job, scene_error
+from .common import json_body, non_finite_paths, not_found_job, scene_error
 
 MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
 
@@ -14,7 +14,7 @@ MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
 def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
     """The routes of scene jobs (``guarded``: the dependencies of every route)."""
     import anyio
-    from fastapi import APIRouter, HTTPException, Query, Request
+    from fastapi import APIRouter, Header, HTTPException, Query, Request
     from fastapi.responses import FileResponse, JSONResponse
 
     import engine
@@ -35,13 +35,23 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
     async def submit_run(request: Request,
                          name: Optional[str] = Query(None, max_length=200,
                                                      description="a label for the run "
-                                                                 "(default: the scene's name)")):
+                                                                 "(default: the scene's name)"),
+                         idempotency_key: Optional[str] = Header(
+                             None, max_length=200,
+                             description="a key of the client's choice: a submit repeated "
+                                         "with the same key returns the first one's run "
+                                         "(200) instead of queueing another")):
         """The body is a scene as JSON (docs/scene.md). Returns the new run (its ``id``);
         the run is queued and starts when a worker is free. A mesh shape names an uploaded
         mesh as ``"file": "mesh:<id>"`` (see ``POST /api/meshes``)."""
+        if idempotency_key:
+            known = jobs.job_for_key(idempotency_key)
+            if known is not None:
+                return JSONResponse(status_code=200, content=jobs.get(known).to_dict(),
+                                    headers={"Location": f"/api/runs/{known}"})
         raw = await request.body()
         try:
-            data = json.loads(raw)
+            data = json_body(raw)
         except (ValueError, UnicodeDecodeError) as exc:
             return scene_error(engine.SceneError.single("(body)", None,
                                                         f"must be a JSON object: {exc}"))
@@ -56,7 +66,8 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
                 [FieldProblem(p, "NaN/Infinity", "must be a finite number") for p in bad]))
         try:
             job_id = await anyio.to_thread.run_sync(
-                lambda: jobs.submit(data, name=name, allow_files=allow_files))
+                lambda: jobs.submit(data, name=name, allow_files=allow_files,
+                                    idempotency_key=idempotency_key or None))
         except engine.SceneError as exc:
             return scene_error(exc)
         info = jobs.get(job_id).to_dict()
@@ -79,11 +90,19 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         return job_or_404(job_id).to_dict()
 
     @router.delete("/api/runs/{job_id}", dependencies=guarded, tags=["runs"],
-                summary="Cancel a run")
-    def cancel_run(job_id: str):
+                summary="Cancel a run, or delete it and its files (purge=true)")
+    def cancel_run(job_id: str, purge: bool = Query(False, description="also delete the "
+                                                    "run and its files (result, scene)")):
         """A queued run is cancelled at once; a running one stops within a second and its
-        result file keeps the frames recorded so far. A finished run is left as it is."""
+        result file keeps the frames recorded so far. A finished run is left as it is.
+        With ``purge=true`` the run is then deleted with its files: ``{id, purged,
+        freed_bytes}``; its id is unknown (404) afterwards."""
         job_or_404(job_id)
+        if purge:
+            try:
+                return jobs.purge(job_id)
+            except RuntimeError as exc:
+                raise HTTPException(409, str(exc)) from None
         return jobs.cancel(job_id).to_dict()
 
     @router.get("/api/runs/{job_id}/result", dependencies=guarded, tags=["runs"],
@@ -135,15 +154,18 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         with res:
             channels = list(res.channels())
             if not channel:
-                return {"id": job_id, "status": res.status, "n_frames": res.n_frames,
-                        "channels": channels}
+                return {"id": job_id, "status": info.status, "file_status": res.status,
+                        "n_frames": res.n_frames, "channels": channels}
             unknown = [c for c in channel if c not in channels]
             if unknown:
                 raise HTTPException(422, f"unknown channel(s) {unknown}: this run records "
                                          f"{channels}")
             frames = slice(start, stop, step)
             time_ = res.time[frames]
-            out = {"id": job_id, "status": res.status, "n_frames": res.n_frames,
+            # one status: the job's (a killed worker's file still says "running");
+            # the file's own is file_status
+            out = {"id": job_id, "status": info.status, "file_status": res.status,
+                   "n_frames": res.n_frames,
                    "frames": {"start": start, "stop": stop, "step": step},
                    "time": jsonable(time_), "series": {}}
             total = len(time_)

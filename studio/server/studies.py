@@ -7,6 +7,7 @@ import json
 from typing import Optional
 
 from ..jobs import STATUSES, STUDIES, JobManager, StudyOptionError, jsonable, study_options
+from .common import json_body
 
 
 def studies_router(jobs: JobManager, guarded: list):
@@ -52,7 +53,7 @@ def studies_router(jobs: JobManager, guarded: list):
         (``GET /api/studies/{id}/files``). Scenes are preset names only."""
         raw = await request.body()
         try:
-            data = json.loads(raw)
+            data = json_body(raw)
         except (ValueError, UnicodeDecodeError) as exc:
             return option_error(StudyOptionError([("(body)", None,
                                                    f"must be a JSON object: {exc}")]))
@@ -101,9 +102,16 @@ def studies_router(jobs: JobManager, guarded: list):
 
     @router.delete("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
                 summary="Cancel a study")
-    def cancel_study(job_id: str):
-        """Stops the study like Ctrl-C: its finished runs keep their files."""
+    def cancel_study(job_id: str, purge: bool = Query(False, description="also delete the "
+                                                      "study and all its files")):
+        """Stops the study like Ctrl-C: its finished runs keep their files. With
+        ``purge=true`` the study is then deleted with its files."""
         study_or_404(job_id)
+        if purge:
+            try:
+                return jobs.purge(job_id, wait=jobs.study_cancel_grace_s)
+            except RuntimeError as exc:
+                raise HTTPException(409, str(exc)) from None
         return jobs.cancel(job_id).to_dict()
 
     @router.get("/api/studies/{job_id}/files", dependencies=guarded, tags=["studies"],

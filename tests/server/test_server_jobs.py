@@ -10,6 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 
 import engine
+import h5py
 
 
 def _wait_running(server, run_id, timeout=600) -> dict:
@@ -35,12 +36,17 @@ def test_killed_worker_fails_its_run_and_the_next_run_completes(server, long_sce
     info = server.wait_run(run_id, timeout=30)
     assert info["status"] == "failed", info
     assert f"pid {pid}" in info["error"] and "SIGKILL" in info["error"], info["error"]
-    # the partial result file is kept and readable (the engine commits frame by frame)
+    # the partial result file is kept and readable (the engine commits frame by frame),
+    # by plain h5py too, and says what the job says (issue 13, item 7: it said "running")
     r = server.client.get(f"/api/runs/{run_id}/result")
     assert r.status_code == 200
     (tmp_path / "partial.h5").write_bytes(r.content)
+    with h5py.File(tmp_path / "partial.h5", "r") as f:
+        status = f.attrs["status"]
+        assert (status.decode() if isinstance(status, bytes) else str(status)) == "failed"
     with engine.open_result(tmp_path / "partial.h5") as res:
-        assert res.interrupted and res.n_frames >= 2
+        assert res.status == "failed" and res.n_frames >= 2
+        assert "SIGKILL" in res.error["message"]
         assert res.time[-1] < 0.5
 
     nxt = server.client.post("/api/runs", json=tiny_scene()).json()["id"]

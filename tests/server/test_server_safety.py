@@ -83,3 +83,20 @@ def test_port_in_use_is_a_clear_error(tmp_path, capsys):
                      "--data", str(tmp_path / "data"), "--log-level", "critical"])
     assert code == 1
     assert f"could not serve on 127.0.0.1:{port}" in capsys.readouterr().err
+
+
+def test_after_a_stop_signal_a_hanging_thread_cannot_hold_the_server():
+    # issue 13, item 2: SIGTERM could not stop a server whose request thread was stuck in
+    # a build. After the signal, serve arms a deadline that ends the process even while
+    # a non-daemon thread (here: a 100 s sleep) would keep the interpreter from exiting.
+    import subprocess
+    import sys
+    import time
+
+    code = ("import threading, time; from studio.serve_cli import _exit_after; "
+            "threading.Thread(target=time.sleep, args=(100,)).start(); _exit_after(0.5, 143)")
+    t0 = time.monotonic()
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 143 and time.monotonic() - t0 < 30
+    assert "exiting now" in p.stderr

@@ -1,0 +1,182 @@
+"""What a scene will cost, from the scene alone: bristles, nodes, triangles, an estimate of
+the timestep and so of the steps, recorded frames, memory and result-file size.
+
+Nothing is allocated in proportion to the scene: the timestep comes from one representative
+bristle per brush (``n_nodes`` nodes, the build's own Gershgorin bound of
+:mod:`engine.timestep`), with every node charged the most contacts the build could give it
+(four neighbouring bristles, every colliding body). That bound is at least the build's, so
+the estimated dt is at most the build's (more steps, never fewer), within a small factor on
+the presets (``tests/engine/test_estimate.py``). It ignores the build's cap on dt from fast
+bodies (tunnelling), which can only lower dt further. Imports numpy only (no numba, no
+trimesh): the job server and the CLI's ``validate`` call it before anything is built::
+
+    cost = engine.estimate(scene)
+    cost.n_nodes, cost.steps, cost.memory_bytes, cost.as_dict()
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Optional
+
+from .spec import Scene
+
+# a built node holds about this many bytes of arrays (state, bonds, contact lists with
+# their capacity, recorder buffers): measured on the presets, rounded up
+BYTES_PER_NODE = 2_000
+BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
+BYTES_FIXED = 64 * 2**20   # the engine, numba and the interpreter
+# recorded bytes per node and frame of each per-node channel (float64 3-vectors, a
+# quaternion, a scalar); the other channels are per brush or body and small
+_CHANNEL_NODE_BYTES = {"nodes": 3 * 8 + 4 * 8, "node_velocities": 6 * 8, "bending": 8,
+                       "contacts": 8}
+MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
+
+
+@dataclass(frozen=True)
+class Cost:
+    """The size of a scene and of its run. ``dt`` is the estimate (or the scene's own),
+    ``steps`` the steps to ``duration``, ``frames`` the recorded frames; ``memory_bytes``
+    the build's arrays, ``result_bytes`` the result file (uncompressed);
+    ``node_steps = n_nodes * steps`` (what the run's wall time grows with)."""
+
+    n_bristles: int
+    n_nodes: int
+    n_triangles: Optional[int]  # None: a mesh file whose size is not known here
+    dt: float
+    dt_given: bool
+    duration: float
+    steps: float
+    frames: float
+    node_steps: float
+    memory_bytes: float
+    result_bytes: float
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def summary(self) -> str:
+        tri = "?" if self.n_triangles is None else f"{self.n_triangles}"
+        return (f"{self.n_bristles} bristles, {self.n_nodes} nodes, {tri} triangles; dt "
+                f"{'(given) ' if self.dt_given else '~ '}{self.dt:.3g} s -> {self.steps:.3g} "
+                f"steps, {self.frames:.3g} frames; memory ~ {self.memory_bytes / 2**20:.0f} "
+                f"MiB, result ~ {self.result_bytes / 2**20:.0f} MiB")
+
+
+def shape_triangles(shape, mesh_triangles=None) -> Optional[int]:
+    """Triangles of a body shape (``mesh_triangles(file)``: how many a mesh file has, or
+    None if unknown)."""
+    kind = shape.type
+    if kind == "box":
+        return 12
+    if kind == "sphere":
+        return 20 * 4 ** int(shape.subdivisions)
+    if kind == "cylinder":
+        return 4 * int(shape.sections)
+    if kind == "wedge":
+        return 8
+    if kind == "mesh":
+        return mesh_triangles(shape.file) if mesh_triangles is not None else None
+    return None
+
+
+def _frustum(E, G, r0, r1, length):
+    """The bond stiffnesses of ``engine.build.frustum_bond_stiffness`` (the same formulas;
+    a test checks they agree), here so that this module does not import the build."""
+    s2 = r0 * r0 + r1 * r1
+    p = r0 * r1
+    e = E * math.pi * p
+    return (e / length, e * (s2 + p) / length ** 3, e * (s2 - p) / (4.0 * length),
+            e * (r0 * r0 - r1 * r1) / (2.0 * length ** 2),
+            G * math.pi / 2.0 * 3.0 * p ** 3 / (length * (s2 + p)))
+
+
+def _bristle_omega2(scene: Scene, brush) -> float:
+    """The largest Gershgorin bound of omega^2 over one bristle of ``brush``, every node
+    charged the most contacts it could have."""
+    import numpy as np
+
+    from .timestep import equalizing_scales, node_bounds
+
+    mat = scene.materials[brush.material]
+    E, rho = mat.youngs_modulus, mat.density
+    G = E / (2.0 * (1.0 + mat.poisson_ratio))
+    n = brush.n_nodes
+    r_node = brush.root_radius + (brush.tip_radius - brush.root_radius) * np.linspace(0, 1, n)
+    seg = brush.bristle_length / (n - 1)
+    r0, r1 = r_node[:-1], r_node[1:]
+    seg_mass = rho * math.pi * seg * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
+    m = np.zeros(n)
+    m[:-1] += 0.5 * seg_mass
+    m[1:] += 0.5 * seg_mass
+    inertia = 0.5 * m * r_node ** 2
+    kn, ks, kb, ksb, kt = _frustum(E, G, r0, r1, seg)
+    bi, bj = np.arange(n - 1), np.arange(1, n)
+    free = np.ones(n, bool)
+    free[0] = False  # the root is clamped
+    partners = min(MAX_BRISTLE_CONTACTS, brush.n_bristles - 1)
+    k_body = np.zeros(n)
+    kt_body = 0.0
+    for body in scene.bodies:
+        if not body.collide:
+            continue
+        Eb = scene.materials[body.material].youngs_modulus
+        sides = 1.0 if body.motion.type in ("fixed", "kinematic") and getattr(
+            body.motion, "after", None) != "free" else 2.0
+        k_body = k_body + sides * 2.0 * Eb * E * r_node / (Eb + E)
+        pair = scene.pair(brush.material, body.material)
+        if pair.friction_angle > 0:
+            kt_body = max(kt_body, pair.tangential_ratio)
+    own = scene.pair(brush.material, brush.material)
+    info = dict(node_mass=m, node_inertia=inertia, node_radius=r_node,
+                node_E=np.full(n, E), node_free=free,
+                node_bristle_contacts=np.full(n, float(partners)), node_k_body=k_body,
+                kt_ratio_bristle=own.tangential_ratio if own.friction_angle > 0 else 0.0,
+                kt_ratio_body=kt_body,
+                bond_arrays=(bi, bj, kn, ks, kb, ksb, kt, np.full(n - 1, seg)))
+    if scene.environment.inertia_scaling == "equalize":
+        ms, is_ = equalizing_scales(info)
+        info["node_mass"] = m * ms
+        info["node_inertia"] = inertia * is_
+    w2_t, w2_r, _ = node_bounds(info)
+    return float(max(w2_t.max(), w2_r.max()))
+
+
+def estimate_dt(scene: Scene) -> float:
+    """The automatic timestep the build would choose, estimated from one bristle per brush
+    (at most the build's; ``run.dt`` when the scene gives it)."""
+    if scene.run.dt is not None:
+        return float(scene.run.dt)
+    omega2 = max([_bristle_omega2(scene, b) for b in scene.brushes], default=0.0)
+    if not omega2 > 0 or not math.isfinite(omega2):
+        return float(scene.run.record_interval)  # nothing moves elastically
+    return scene.run.dt_safety * 2.0 / math.sqrt(omega2)
+
+
+def _ceil(x: float) -> float:
+    return float(math.ceil(x)) if math.isfinite(x) else math.inf
+
+
+def _floor(x: float) -> float:
+    return float(math.floor(x)) if math.isfinite(x) else math.inf
+
+
+def estimate(scene: Scene, mesh_triangles=None) -> Cost:
+    """The cost of ``scene`` (a validated :class:`engine.Scene`), computed in microseconds
+    whatever the scene's size. ``mesh_triangles(file) -> int | None`` counts a mesh file's
+    triangles (the job server knows them for uploaded meshes)."""
+    n_bristles = sum(b.rows * b.columns for b in scene.brushes)
+    n_nodes = sum(b.rows * b.columns * b.n_nodes for b in scene.brushes)
+    tris = [shape_triangles(body.shape, mesh_triangles) for body in scene.bodies]
+    n_triangles = None if any(t is None for t in tris) else int(sum(tris))
+    dt = estimate_dt(scene)
+    duration = float(scene.run.duration)
+    steps = _ceil(duration / dt) if dt > 0 else math.inf
+    frames = _floor(duration / scene.run.record_interval) + 1
+    node_bytes = sum(_CHANNEL_NODE_BYTES.get(c, 0) for c in scene.run.channels)
+    result_bytes = float(frames) * (n_nodes * node_bytes + 200 * (1 + len(scene.bodies)))
+    memory = BYTES_FIXED + n_nodes * BYTES_PER_NODE + (n_triangles or 0) * BYTES_PER_TRIANGLE
+    return Cost(n_bristles=n_bristles, n_nodes=n_nodes, n_triangles=n_triangles, dt=dt,
+                dt_given=scene.run.dt is not None, duration=duration, steps=float(steps),
+                frames=float(frames), node_steps=float(n_nodes) * steps if n_nodes else 0.0,
+                memory_bytes=float(memory), result_bytes=result_bytes)
