@@ -703,7 +703,7 @@ def add_parser(sub) -> None:
                    help="quasi-static: run every scene again with each step in twice as many "
                         "increments and report the largest change of the recorded force "
                         f"(study.json increment_check; converged within "
-                        f"{INCREMENT_TOLERANCE:.0%}?); about 1.8x the CPU")
+                        f"{INCREMENT_TOLERANCE * 100:g} %%?); about 1.8x the CPU")
     add_protocol_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_wedge)
