@@ -231,8 +231,8 @@ def orbit_energy(system) -> float:
     n = float(system.mission.orbit[0])
     if n == 0.0:
         return 0.0
-    from .bodies import FREE, HINGE
     from .rotations import quat_to_matrix
+    FREE, HINGE = 3, 2  # engine.bodies' motion codes (bodies imports this module)
     nd, bd = system.nodes, system.bodies
     free = nd.inv_mass > 0
     n2 = n * n
