@@ -18,6 +18,7 @@ import math
 
 from numba import njit
 
+from .orbit import cw_drift_body
 from .rotations import qexp, qmul, qnormalize, qrot, qrot_inv
 
 FIXED = 0
@@ -67,12 +68,16 @@ def _free_rotate(q, L, Ip, k, h):
 
 
 @njit(cache=True, inline="always")
-def _omega_from_L(q, L, Ip, w, k):
+def _omega_from_L(q, L, Ip, w, k, frame_rate):
+    """w = I^-1 L, less the rate of a frame turning about z (the Hill frame's n; 0 in an
+    inertial frame), so that w is the angular velocity relative to the frame."""
     b0, b1, b2 = qrot_inv(q[k, 0], q[k, 1], q[k, 2], q[k, 3], L[k, 0], L[k, 1], L[k, 2])
     o0 = b0 / Ip[k, 0] if Ip[k, 0] > 0.0 else 0.0
     o1 = b1 / Ip[k, 1] if Ip[k, 1] > 0.0 else 0.0
     o2 = b2 / Ip[k, 2] if Ip[k, 2] > 0.0 else 0.0
     w[k, 0], w[k, 1], w[k, 2] = qrot(q[k, 0], q[k, 1], q[k, 2], q[k, 3], o0, o1, o2)
+    if frame_rate != 0.0:
+        w[k, 2] -= frame_rate
 
 
 @njit(cache=True)
@@ -136,9 +141,11 @@ def kinematic_state(k, time, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor
 
 @njit(cache=True)
 def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
-                     hinge_axis, hinge_point, hinge_inertia, hinge_k1, hinge_k2, acc):
+                     hinge_axis, hinge_point, hinge_inertia, hinge_k1, hinge_k2, acc,
+                     orbit_n=0.0):
     """Half a velocity kick of free and hinge bodies from the forces of the last evaluation.
-    ``acc[0]`` accumulates the energy the hinge dissipation removes."""
+    ``acc[0]`` accumulates the energy the hinge dissipation removes. ``orbit_n``: the mean
+    motion of the Hill frame the scene lives in (0 = inertial; see engine.orbit)."""
     h = 0.5 * dt
     for k in range(motion.shape[0]):
         m = motion[k]
@@ -146,7 +153,7 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
             for a in range(3):
                 v[k, a] += h * (f[k, a] / mass[k] + gravity[a])
                 L[k, a] += h * tq[k, a]
-            _omega_from_L(q, L, Ip, w, k)
+            _omega_from_L(q, L, Ip, w, k, orbit_n)
         elif m == HINGE:
             ax = hinge_axis[k, 0]
             ay = hinge_axis[k, 1]
@@ -182,17 +189,22 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
 
 @njit(cache=True)
 def bodies_drift(dt, time_new, motion, pos, q, v, w, L, Ip, hinge_axis, hinge_point,
-                 after_free, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor):
+                 after_free, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor, orbit_n=0.0):
     """Advance body poses by dt (positions of free/hinge bodies; kinematic bodies are set to
     their profile at ``time_new``; a kinematic body whose profile ended and whose ``after``
-    is free becomes a free body)."""
+    is free becomes a free body). With ``orbit_n`` != 0 a free body's centre follows the
+    exact Clohessy-Wiltshire flow and its momentum and orientation turn with the Hill frame
+    (engine.orbit)."""
     for k in range(motion.shape[0]):
         m = motion[k]
         if m == FREE:
-            for a in range(3):
-                pos[k, a] += dt * v[k, a]
+            if orbit_n != 0.0:
+                cw_drift_body(k, pos, v, L, q, dt, orbit_n)
+            else:
+                for a in range(3):
+                    pos[k, a] += dt * v[k, a]
             _free_rotate(q, L, Ip, k, dt)
-            _omega_from_L(q, L, Ip, w, k)
+            _omega_from_L(q, L, Ip, w, k, orbit_n)
         elif m == HINGE:
             ax = hinge_axis[k, 0]
             ay = hinge_axis[k, 1]
@@ -217,6 +229,6 @@ def bodies_drift(dt, time_new, motion, pos, q, v, w, L, Ip, hinge_axis, hinge_po
                 motion[k] = FREE
                 # world angular momentum from the release angular velocity
                 b0, b1, b2 = qrot_inv(q[k, 0], q[k, 1], q[k, 2], q[k, 3], w[k, 0], w[k, 1],
-                                      w[k, 2])
+                                      w[k, 2] + orbit_n)
                 L[k, 0], L[k, 1], L[k, 2] = qrot(q[k, 0], q[k, 1], q[k, 2], q[k, 3],
                                                  Ip[k, 0] * b0, Ip[k, 1] * b1, Ip[k, 2] * b2)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -17,7 +18,8 @@ from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
-from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Nodes, PairList,
+from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
+                    PairList,
                     Roots, Tables)
 from .timestep import BRISTLE_CONTACTS_PER_NODE, automatic_dt, equalizing_scales
 
@@ -74,6 +76,11 @@ class System:
     body_geometry: list = field(default_factory=list)
     body_frame_offset: list = field(default_factory=list)  # quaternion shape->body per body
     prescribed_motions: list = field(default_factory=list)  # changes by prescribe_motion
+    mission: Optional[Mission] = None   # orbit, controllers, external body loads
+
+    @property
+    def controller_names(self) -> list[str]:
+        return [c.name for c in self.scene.controllers]
 
     @property
     def time(self) -> float:
@@ -247,6 +254,8 @@ def build(scene: Scene) -> System:
             ktr[a, b] = pair.tangential_ratio
             zeta[a, b] = restitution_damping_ratio(pair.restitution)
     gravity = np.asarray(scene.environment.gravity, float)
+    orbit = scene.environment.orbit
+    orbit_n = orbit.n if orbit is not None else 0.0
 
     # ------------------------------------------------------------------ bodies
     K = len(scene.bodies)
@@ -340,7 +349,8 @@ def build(scene: Scene) -> System:
             motion[k] = FREE
             vel[k] = v0
             omg[k] = w0
-            L[k] = I_world @ w0
+            # w0 is relative to the (Hill) frame; L is inertial (engine.orbit)
+            L[k] = I_world @ (w0 + np.array([0.0, 0.0, orbit_n])) if orbit_n else I_world @ w0
         elif m.type == "hinge":
             motion[k] = HINGE
             a = np.asarray(m.axis, float)
@@ -726,7 +736,11 @@ def build(scene: Scene) -> System:
                   rigid_bodies=rigid, mounted_roots=mounted,
                   gravity=has_gravity, loads=NL > 0 and len(load_nodes) > 0,
                   local_damping=alpha > 0, track_energy=track_energy,
-                  check_every=CHECK_EVERY, time_every=TIME_EVERY)
+                  check_every=CHECK_EVERY, time_every=TIME_EVERY,
+                  orbit=orbit_n != 0.0, controllers=len(scene.controllers) > 0,
+                  external_loads=any(any(b.external_force) or any(b.external_torque)
+                                     for b in scene.bodies))
+    mission = _mission(scene, orbit_n, body_names, shape_to_body_list)
     stages = []
     if flags.bonds:
         stages.append("bonds")
@@ -754,6 +768,12 @@ def build(scene: Scene) -> System:
         stages.append("local_damping")
     if track_energy:
         stages.append("energy_tracking")
+    if flags.orbit:
+        stages.append("orbit")
+    if flags.controllers:
+        stages.append("controllers")
+    if flags.external_loads:
+        stages.append("external_body_loads")
 
     limits = np.array([MAX_OVERLAP_RATIO, MAX_NODE_STEP_RATIO,
                        MAX_BODY_STEP_RATIO * (r_min if N else 1.0), skin, alpha])
@@ -767,10 +787,43 @@ def build(scene: Scene) -> System:
                     body_names=body_names, bristle_first_node=bristle_first_arr,
                     bristle_brush=bristle_brush_arr, node_bristle=node_bristle_arr,
                     warnings=warnings, body_geometry=geoms,
-                    body_frame_offset=shape_to_body_list)
+                    body_frame_offset=shape_to_body_list, mission=mission)
     if bb_needed or bbody_needed:
         initial_lists(system)
     return system
+
+
+def _mission(scene: Scene, orbit_n: float, body_names: list[str],
+             shape_to_body: list) -> Mission:
+    """The mission layer's arrays: orbit, controllers (engine.control), external loads."""
+    from . import control as C
+    orbit = scene.environment.orbit
+    orbit_arr = np.array([orbit_n, 1.0 if (orbit is not None and orbit.gravity_gradient)
+                          else 0.0])
+    nc = len(scene.controllers)
+    ci = np.full((max(nc, 1), 2), -1, np.int64)
+    cp = np.zeros((max(nc, 1), C.P_SIZE))
+    cs = np.zeros((max(nc, 1), C.S_SIZE))
+    for i, c in enumerate(scene.controllers):
+        ci[i, 0] = body_names.index(c.body)
+        ci[i, 1] = body_names.index(c.reference) if c.reference is not None else -1
+        g, a = c.position_gains, c.attitude_gains
+        cp[i, [C.P_KP, C.P_KD, C.P_KI]] = g.proportional, g.derivative, g.integral
+        cp[i, [C.P_KPA, C.P_KDA, C.P_KIA]] = a.proportional, a.derivative, a.integral
+        cp[i, C.P_INTERVAL] = c.sample_interval
+        cp[i, C.P_MAXF:C.P_MAXF + 3] = c.max_force if c.max_force is not None else np.inf
+        cp[i, C.P_MAXT:C.P_MAXT + 3] = c.max_torque if c.max_torque is not None else np.inf
+        cp[i, C.P_DB_POS] = c.position_deadband
+        cp[i, C.P_DB_ATT] = c.attitude_deadband
+        cp[i, C.P_TARGET:C.P_TARGET + 3] = c.position
+        cp[i, C.P_QTARGET:C.P_QTARGET + 4] = c.orientation
+        # q_body = q_pose q_p (principal -> shape): the mesh axes are q_body q_p^-1
+        cp[i, C.P_QBM:C.P_QBM + 4] = _conj(np.asarray(shape_to_body[ci[i, 0]], float))
+    ext = np.zeros((len(scene.bodies), 6))
+    for k, b in enumerate(scene.bodies):
+        ext[k, :3] = b.external_force
+        ext[k, 3:] = b.external_torque
+    return Mission(orbit=orbit_arr, ctl_index=ci, ctl_par=cp, ctl_state=cs, external=ext)
 
 
 def _max_body_speeds(bodies: Bodies, collide) -> tuple[float, int]:

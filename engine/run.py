@@ -18,6 +18,7 @@ import numpy as np
 from .bodies import FREE, HINGE
 from .build import System, grow_lists
 from .errors import InstabilityError
+from .orbit import orbit_energy
 from .recorder import Recorder, state_channels, state_frame
 from .rotations import quat_to_matrix
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS,
@@ -62,6 +63,29 @@ class RunResult:
 
 
 # ----------------------------------------------------------------------------- channels
+#: per controller: (name, per-frame shape); forces and torques in the body's mesh axes,
+#: impulses and errors in world axes (engine.control)
+_CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
+                        ("commanded_torque", (3,)), ("applied_torque", (3,)),
+                        ("impulse", (3,)), ("angular_impulse", (3,)), ("delta_v", ()),
+                        ("angular_impulse_total", ()), ("position_error", (3,)),
+                        ("attitude_error", (3,)))
+
+
+def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
+    """Controller c's current record (see _CONTROLLER_CHANNELS)."""
+    from . import control as C
+    cs = system.mission.ctl_state[c]
+    slots = {"commanded_force": C.S_CMD_F, "applied_force": C.S_APP_F,
+             "commanded_torque": C.S_CMD_T, "applied_torque": C.S_APP_T,
+             "impulse": C.S_IMPULSE, "angular_impulse": C.S_ANG_IMPULSE,
+             "position_error": C.S_ERR_POS, "attitude_error": C.S_ERR_ATT}
+    out = {k: cs[i:i + 3].copy() for k, i in slots.items()}
+    out["delta_v"] = np.float64(cs[C.S_DELTA_V])
+    out["angular_impulse_total"] = np.float64(cs[C.S_ANG_IMPULSE_ABS])
+    return out
+
+
 def _channels(system: System) -> tuple[dict, dict]:
     sc = system.scene
     want = set(sc.run.channels)
@@ -97,6 +121,9 @@ def _channels(system: System) -> tuple[dict, dict]:
     if "contacts" in want:
         for key in ("bristle_bristle", "bristle_body", "body_body"):
             ch[f"contacts/{key}"] = ((), "i8")
+    for c in sc.controllers:  # always recorded: a controller's record is small
+        for key, shape in _CONTROLLER_CHANNELS:
+            ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
     if "bending" in want and system.bonds.i.shape[0]:
         ch["bonds/bending_moment"] = ((system.bonds.i.shape[0],), "f4")
         static.setdefault("bonds/nodes", np.stack([system.bonds.i, system.bonds.j], axis=1))
@@ -128,6 +155,7 @@ def energies(system: System) -> dict[str, float]:
             om = float(bd.w[k] @ bd.hinge_axis[k])
             kin += 0.5 * bd.hinge_inertia[k] * om * om
             grav -= bd.mass[k] * float((bd.pos[k] - bd.pos0[k]) @ g)
+    grav += orbit_energy(system)  # tidal (Clohessy-Wiltshire) potential; 0 without an orbit
     bond = float(system.bonds.energy.sum())
     contact = float(system.acc[ACC_E_BB] + system.acc[ACC_E_BODY] + system.acc[ACC_E_BODYBODY])
     diss = float(system.acc[ACC_HINGE_DISS] + system.acc[ACC_DISSIPATED])
@@ -218,6 +246,9 @@ def _frame(system: System, channels: dict) -> dict:
         fr["contacts/body_body"] = int(system.acc[ACC_N_BODYBODY])
     if "bonds/bending_moment" in channels:
         fr["bonds/bending_moment"] = bending_moments(system).astype(np.float32)
+    for c, ctl in enumerate(system.scene.controllers):
+        for key, val in controller_record(system, c).items():
+            fr[f"controllers/{ctl.name}/{key}"] = val
     fr.update(state_frame(system, channels))
     return fr
 
@@ -450,7 +481,7 @@ def _advance(system: System, n: int) -> int:
     code, did = advance(system.nodes, system.bonds, system.roots, system.bodies, system.pairs,
                         system.body_pairs, system.loads, system.tables, system.flags,
                         system.acc, system.err, system.stage_time, system.dt, n,
-                        system.limits)
+                        system.limits, system.mission)
     if code in (OVERFLOW_PAIRS, OVERFLOW_BODY):
         lst = system.pairs if code == OVERFLOW_PAIRS else system.body_pairs
         grow_lists(system, code, int(lst.n[1]))

@@ -312,6 +312,11 @@ class Body(_Model):
     velocity: Vector3 = (0.0, 0.0, 0.0)
     angular_velocity: Vector3 = Field((0.0, 0.0, 0.0), description="world frame, rad/s")
     collide: bool = Field(True, description="False: a body that only carries brushes")
+    external_force: Vector3 = Field(
+        (0.0, 0.0, 0.0), description="constant force on a free body's centre of mass, world "
+                                     "(Hill) axes, N: a disturbance such as a thruster bias")
+    external_torque: Vector3 = Field(
+        (0.0, 0.0, 0.0), description="constant torque on a free body, world axes, N m")
 
 
 # --------------------------------------------------------------------------- loads
@@ -345,8 +350,38 @@ class Load(_Model):
 
 
 # --------------------------------------------------------------------------- environment/run
+class Orbit(_Model):
+    """A circular reference orbit: the scene lives in its Hill frame (x radial outwards,
+    y along-track, z orbit normal) and every free node and body follows the
+    Clohessy-Wiltshire equations (docs/mission.md). Give ``mean_motion`` or ``altitude``
+    (circular Earth orbit; n = sqrt(mu / (R + h)^3), mu = 3.986004418e14 m^3/s^2,
+    R = 6378137 m). ``mean_motion`` = 0 is free space."""
+
+    mean_motion: Optional[NonNegativeFloat] = Field(None, description="n, rad/s")
+    altitude: Optional[PositiveFloat] = Field(None, description="m above Earth's equatorial "
+                                                                "radius")
+    gravity_gradient: bool = Field(False, description="gravity-gradient torque on free and "
+                                                      "hinge bodies")
+
+    @model_validator(mode="after")
+    def _one_way(self):
+        if (self.mean_motion is None) == (self.altitude is None):
+            raise ValueError("give either mean_motion (rad/s) or altitude (m), not both")
+        return self
+
+    @property
+    def n(self) -> float:
+        """The mean motion, rad/s."""
+        if self.mean_motion is not None:
+            return float(self.mean_motion)
+        from .orbit import mean_motion_from_altitude
+        return mean_motion_from_altitude(self.altitude)
+
+
 class Environment(_Model):
     gravity: Vector3 = (0.0, 0.0, 0.0)
+    orbit: Optional[Orbit] = Field(None, description="None: an inertial frame (free space, or "
+                                                     "the ground with gravity)")
     local_damping: float = Field(
         0.0, ge=0.0, lt=1.0, allow_inf_nan=False,
         description="Cundall's non-viscous local damping of bristle nodes (0 = none); for "
@@ -399,6 +434,50 @@ class RunSettings(_Model):
         return c
 
 
+# --------------------------------------------------------------------------- controllers
+class Gains(_Model):
+    """PID gains of one loop: position loop in N/m, N s/m, N/(m s); attitude loop in
+    N m/rad, N m s/rad, N m/(rad s)."""
+
+    proportional: NonNegativeFloat = 0.0
+    derivative: NonNegativeFloat = 0.0
+    integral: NonNegativeFloat = 0.0
+
+
+class PoseController(_Model):
+    """A sampled PD/PID pose controller acting on a free body (a chaser's thrusters and
+    reaction wheels). Every ``sample_interval`` it measures the body's pose and velocity and
+    holds, until the next sample, the force F = kp e + kd de/dt + ki sum(e) dt and the torque
+    of the same form on the attitude error (rotation vector of q_target q^-1), each expressed
+    in the body's own mesh axes and clipped per axis to ``max_force`` / ``max_torque``
+    (thrusters fixed on the body). Target: ``position`` in the Hill/world frame, or, with
+    ``reference`` (a body name), ``position`` is an offset from that body's centre of mass
+    (world axes) and the velocity error is taken relative to that body's centre; the
+    attitude target ``orientation`` is the body's mesh axes in the world frame. Inside the
+    deadband (|position error| <= ``position_deadband``, |attitude error| <=
+    ``attitude_deadband``) that loop commands nothing."""
+
+    name: str = "controller"
+    body: str
+    reference: Optional[str] = None
+    position: Vector3 = (0.0, 0.0, 0.0)
+    orientation: tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat] = (1.0, 0.0, 0.0, 0.0)
+    position_gains: Gains = Gains()
+    attitude_gains: Gains = Gains()
+    sample_interval: PositiveFloat = Field(0.1, description="s (zero-order hold)")
+    max_force: Optional[tuple[PositiveFloat, PositiveFloat, PositiveFloat]] = Field(
+        None, description="N per body axis; None = unlimited")
+    max_torque: Optional[tuple[PositiveFloat, PositiveFloat, PositiveFloat]] = Field(
+        None, description="N m per body axis; None = unlimited")
+    position_deadband: NonNegativeFloat = Field(0.0, description="m")
+    attitude_deadband: NonNegativeFloat = Field(0.0, description="rad")
+
+    @field_validator("orientation")
+    @classmethod
+    def _unit_quaternion(cls, q):
+        return Pose._unit_quaternion(q)
+
+
 # --------------------------------------------------------------------------- scene
 class Scene(_Model):
     schema_version: int = SCHEMA_VERSION
@@ -409,6 +488,7 @@ class Scene(_Model):
     brushes: list[Brush] = Field(default_factory=list)
     bodies: list[Body] = Field(default_factory=list)
     loads: list[Load] = Field(default_factory=list)
+    controllers: list[PoseController] = Field(default_factory=list)
     environment: Environment = Environment()
     run: RunSettings
 
@@ -473,6 +553,28 @@ class Scene(_Model):
             if load.bristles != "all" and any(k >= brush.n_bristles for k in load.bristles):
                 problems.append((f"loads.{i}.bristles", load.bristles,
                                  f"indices must be below {brush.n_bristles}"))
+        cnames = [c.name for c in self.controllers]
+        if len(set(cnames)) != len(cnames):
+            problems.append(("controllers", cnames, "controller names must be unique"))
+        for i, c in enumerate(self.controllers):
+            if c.body not in bnames:
+                problems.append((f"controllers.{i}.body", c.body,
+                                 f"must be one of the bodies {bnames}"))
+            elif self.bodies[bnames.index(c.body)].motion.type != "free":
+                problems.append((f"controllers.{i}.body", c.body,
+                                 "must be a free body (motion type 'free')"))
+            if c.reference is not None and (c.reference not in bnames or c.reference == c.body):
+                problems.append((f"controllers.{i}.reference", c.reference,
+                                 f"must be null or one of the other bodies "
+                                 f"{[b for b in bnames if b != c.body]}"))
+        for i, body in enumerate(self.bodies):
+            if (any(body.external_force) or any(body.external_torque)) \
+                    and body.motion.type != "free":
+                problems.append((f"bodies.{i}.external_force", list(body.external_force),
+                                 "external force and torque act on free bodies only"))
+        if self.environment.orbit is not None and any(self.environment.gravity):
+            problems.append(("environment.gravity", list(self.environment.gravity),
+                             "must be zero in orbit: the Hill frame is in free fall"))
         if self.run.stop is not None and self.run.stop.quantity == "body_angular_speed":
             if self.run.stop.body not in bnames:
                 problems.append(("run.stop.body", self.run.stop.body,

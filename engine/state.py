@@ -39,11 +39,16 @@ Loads = namedtuple("Loads", [
 
 Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity"])
 
+# the mission layer: ``orbit`` = [mean motion n (rad/s), gravity gradient on (1) or off (0)];
+# controllers (engine.control: ``ctl_index`` (C, 2), ``ctl_par``, ``ctl_state``); ``external``
+# (K, 6): constant force and torque on free bodies, world axes
+Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "external"])
+
 Flags = namedtuple("Flags", [
     "bonds", "bond_damping", "bristle_bristle", "bristle_body", "body_body",
     "friction_bristle", "friction_body", "friction_body_body", "rigid_bodies",
     "mounted_roots", "gravity", "loads", "local_damping", "track_energy", "check_every",
-    "time_every"])
+    "time_every", "orbit", "controllers", "external_loads"])
 
 # accumulators (float64 array ``acc``)
 ACC_HINGE_DISS = 0   # must stay 0: bodies_half_kick writes acc[0]

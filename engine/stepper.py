@@ -16,9 +16,11 @@ import numpy as np
 from numba import njit, objmode, prange
 
 from .bodies import KINEMATIC, bodies_drift, bodies_half_kick
+from .control import apply_controllers, apply_external
 from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
                             carry_body_history, scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_node_forces
+from .orbit import nodes_kick_drift_cw, orbit_body_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
 from .rotations import qexp, qmul, qnormalize, qrot
@@ -333,11 +335,13 @@ def check_state(nd, bd, fl, acc, err, dt, limits, time):
 
 
 @njit(cache=True)
-def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits):
+def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits, ms):
     """Advance the system by up to ``n_steps`` steps. ``acc`` holds the time, the step count
     and the running energy/contact totals; ``limits`` = [max overlap / radius, max node step
-    / radius, max body step (m), skin (m), local damping]. Returns (code, steps done)."""
+    / radius, max body step (m), skin (m), local damping]; ``ms`` the mission layer (orbit,
+    controllers, external loads on bodies). Returns (code, steps done)."""
     skin = limits[3]
+    orbit_n = ms.orbit[0] if fl.orbit else 0.0
     stats = np.zeros(5)
     for it in range(n_steps):
         timed = fl.time_every > 0 and (int(acc[ACC_STEPS]) % fl.time_every == 0)
@@ -354,15 +358,21 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             c1 = _clock()
             stage_time[1] += c1 - c0
         # ---- half kick + drift
-        nodes_kick_drift(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
+        if fl.orbit:
+            nodes_kick_drift_cw(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t, nd.inv_mass,
+                                nd.inv_inertia, dt, orbit_n)
+        else:
+            nodes_kick_drift(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia,
+                             dt)
         t_new = acc[ACC_TIME] + dt
         if fl.rigid_bodies:
             bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
                              bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc)
+                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
             bodies_drift(dt, t_new, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.Ip,
                          bd.hinge_axis, bd.hinge_point, bd.after_free, bd.seg_start, bd.t0,
-                         bd.t1, bd.p0, bd.p1, bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor)
+                         bd.t1, bd.p0, bd.p1, bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor,
+                         orbit_n)
         if fl.mounted_roots:
             roots_follow(nd.x, nd.v, nd.q, nd.w, rt.node, rt.body, rt.local_pos, rt.local_q,
                          bd.pos, bd.q, bd.v, bd.w)
@@ -468,6 +478,16 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             stage_time[5] += c7 - c6
         if fl.mounted_roots:
             roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
+        if fl.orbit:
+            orbit_body_forces(bd.motion, bd.pos, bd.q, bd.mass, bd.Ip, bd.f, bd.tq, orbit_n,
+                              ms.orbit[1] != 0.0)
+        if fl.external_loads:
+            acc[ACC_WORK] += apply_external(ms.external, bd.motion, bd.v, bd.w, bd.f, bd.tq,
+                                            dt)
+        if fl.controllers:
+            acc[ACC_WORK] += apply_controllers(ms.ctl_index, ms.ctl_par, ms.ctl_state, bd.pos,
+                                               bd.q, bd.v, bd.w, bd.mass, bd.f, bd.tq, t_new,
+                                               dt)
         if fl.local_damping:
             acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
                                                  limits[4], dt)
@@ -487,7 +507,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         if fl.rigid_bodies:
             bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
                              bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc)
+                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
         acc[ACC_STEPS] += 1
         if timed:
             c9 = _clock()

@@ -204,3 +204,20 @@ def hinge_spin_down(omega0: float, k1: float, k2: float, t: np.ndarray) -> np.nd
     else:
         w = omega0 - k2 * t
     return np.maximum(w, 0.0)
+
+
+# ------------------------------------------------------------------------------ orbits
+def clohessy_wiltshire(n: float, t: float, r0, v0) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form solution of the Clohessy-Wiltshire equations (Hill frame: x radial,
+    y along-track, z orbit normal; x'' = 3n^2 x + 2n y', y'' = -2n x', z'' = -n^2 z), as in
+    Vallado, *Fundamentals of Astrodynamics*, eq. 6-66: position and velocity at t."""
+    x0, y0, z0 = r0
+    u0, w0, s0 = v0  # x', y', z' at 0
+    c, s = math.cos(n * t), math.sin(n * t)
+    x = (4 - 3 * c) * x0 + s / n * u0 + 2 / n * (1 - c) * w0
+    y = 6 * (s - n * t) * x0 + y0 - 2 / n * (1 - c) * u0 + (4 * s - 3 * n * t) / n * w0
+    z = c * z0 + s / n * s0
+    u = 3 * n * s * x0 + c * u0 + 2 * s * w0
+    w = -6 * n * (1 - c) * x0 - 2 * s * u0 + (4 * c - 3) * w0
+    sz = -n * s * z0 + c * s0
+    return np.array([x, y, z]), np.array([u, w, sz])

@@ -1,0 +1,253 @@
+"""Relative orbital dynamics: the Clohessy-Wiltshire (Hill) equations about a circular
+reference orbit of mean motion n, in the Hill frame (x radial outwards, y along-track,
+z orbit normal; the frame turns at Omega = n z about the inertial frame):
+
+    x'' = 3 n^2 x + 2 n y',    y'' = -2 n x',    z'' = -n^2 z.
+
+How they are integrated. The step loop is a kick-drift-kick splitting of H = H_CW + V, where
+V is the potential of the bonds and contacts (and H_CW the free CW Hamiltonian, quadratic in
+the Hill coordinates and their canonical momenta p = v + Omega x r). The "drift" of every
+free node and free body centre is the *exact* CW flow over dt (the closed-form state
+transition matrix below), the kicks add the forces as before. Each sub-step is the exact
+flow of a Hamiltonian piece, so the composition is symplectic and time-reversible: the
+Jacobi integral ``C = |v|^2/2 - 3/2 n^2 x^2 + 1/2 n^2 z^2 + V/m`` stays bounded (its error
+oscillates with O(dt^2) amplitude and does not drift), and a body with no force on it follows
+the closed-form CW solution to round-off. A kick is the same whether written for v or for
+p, because p - v = Omega x r does not change while r is held.
+
+Attitude. A free body keeps its angular momentum L (inertial, in Hill-frame components) and
+its orientation relative to the Hill frame. In the turning frame both turn by -n dt about z
+each step (the frame's rotation), which commutes with the torque-free rotation; the angular
+velocity the rest of the engine sees (contacts, mounted roots, records) is the one relative
+to the Hill frame, ``w = I^-1 L - Omega``. A node (isotropic inertia) obeys
+``w' = -Omega x w + torque / I`` in the frame: its spin turns by -n dt about z.
+
+Gravity gradient (optional): torque ``3 n^2 x_hat x (I x_hat)`` on free and hinge bodies,
+potential ``n^2/2 (tr I - 3 x_hat . I x_hat)``. Hinge bodies (an axis held in the Hill frame)
+also get the tidal force ``m (3 n^2 x, 0, -n^2 z)`` on their centre and the frame's
+centrifugal torque ``n^2 z_hat x (I z_hat)``; the Coriolis force does no work and so has no
+moment about a fixed axis. Fixed and kinematic bodies and fixed roots
+are held in the Hill frame.
+
+With n = 0 none of this runs: the step loop takes its ordinary path (``Flags.orbit``).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .bonds import PARALLEL_MIN
+from .rotations import qexp, qmul, qnormalize, qrot, qrot_inv
+
+#: Earth's gravitational parameter (m^3/s^2, WGS-84/EGM-96) and equatorial radius (m), used
+#: only to turn an altitude into a mean motion
+MU_EARTH = 3.986004418e14
+R_EARTH = 6378137.0
+
+
+def mean_motion_from_altitude(altitude: float) -> float:
+    """n = sqrt(mu / a^3) of a circular Earth orbit at ``altitude`` above the equatorial
+    radius (rad/s)."""
+    a = R_EARTH + altitude
+    return math.sqrt(MU_EARTH / a ** 3)
+
+
+@njit(cache=True, inline="always")
+def _one_minus_cos(th):
+    s = math.sin(0.5 * th)
+    return 2.0 * s * s
+
+
+@njit(cache=True, inline="always")
+def _sin_minus_arg(th):
+    """sin(th) - th without cancellation for small th."""
+    if abs(th) < 1e-2:
+        t2 = th * th
+        return -th * t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)))
+    return math.sin(th) - th
+
+
+@njit(cache=True)
+def cw_coefficients(n, tau):
+    """The CW state transition matrix over tau as its 13 distinct entries (see cw_flow)."""
+    th = n * tau
+    s = math.sin(th)
+    c = math.cos(th)
+    omc = _one_minus_cos(th)
+    smt = _sin_minus_arg(th)
+    out = np.empty(13)
+    out[0] = 1.0 + 3.0 * omc          # x <- x        (4 - 3c)
+    out[1] = s / n                    # x <- vx
+    out[2] = 2.0 * omc / n            # x <- vy
+    out[3] = 6.0 * smt                # y <- x        6 (s - th)
+    out[4] = (4.0 * smt + th) / n     # y <- vy       (4 s - 3 th) / n
+    out[5] = c                        # z <- z, vx <- vx, vz <- vz
+    out[6] = 3.0 * n * s              # vx <- x
+    out[7] = 2.0 * s                  # vx <- vy, -(vy <- vx)
+    out[8] = -6.0 * n * omc           # vy <- x
+    out[9] = 1.0 - 4.0 * omc          # vy <- vy      (4c - 3)
+    out[10] = -n * s                  # vz <- z
+    out[11] = s                       # (s)
+    out[12] = th
+    return out
+
+
+@njit(cache=True, inline="always")
+def cw_apply(cf, x, y, z, vx, vy, vz):
+    """The exact CW flow of one state by the coefficients of cw_coefficients."""
+    nx = cf[0] * x + cf[1] * vx + cf[2] * vy
+    ny = cf[3] * x + y - cf[2] * vx + cf[4] * vy
+    nz = cf[5] * z + cf[1] * vz
+    nvx = cf[6] * x + cf[5] * vx + cf[7] * vy
+    nvy = cf[8] * x - cf[7] * vx + cf[9] * vy
+    nvz = cf[10] * z + cf[5] * vz
+    return nx, ny, nz, nvx, nvy, nvz
+
+
+@njit(cache=True)
+def cw_flow(n, tau, state):
+    """Closed-form CW solution: the state (x, y, z, vx, vy, vz) after tau (a new array)."""
+    cf = cw_coefficients(n, tau)
+    r = cw_apply(cf, state[0], state[1], state[2], state[3], state[4], state[5])
+    return np.array(r)
+
+
+@njit(cache=True, inline="always")
+def _turn_z(c, s, a0, a1):
+    """Rotate (a0, a1) by the angle whose cos/sin are c, s about z."""
+    return c * a0 - s * a1, s * a0 + c * a1
+
+
+@njit(cache=True, inline="always")
+def _kick_drift_cw(n_, x, v, q, w, f, t, inv_mass, inv_inertia, dt, cf, ch, sh):
+    h = 0.5 * dt
+    im = inv_mass[n_]
+    if im == 0.0:
+        return
+    for a in range(3):
+        v[n_, a] += h * f[n_, a] * im
+    x0, x1, x2, v0, v1, v2 = cw_apply(cf, x[n_, 0], x[n_, 1], x[n_, 2], v[n_, 0], v[n_, 1],
+                                      v[n_, 2])
+    x[n_, 0] = x0
+    x[n_, 1] = x1
+    x[n_, 2] = x2
+    v[n_, 0] = v0
+    v[n_, 1] = v1
+    v[n_, 2] = v2
+    ii = inv_inertia[n_]
+    w0 = w[n_, 0] + h * t[n_, 0] * ii
+    w1 = w[n_, 1] + h * t[n_, 1] * ii
+    w2 = w[n_, 2] + h * t[n_, 2] * ii
+    # spin turns by -n dt about z (frame rotation), split around the orientation drift
+    w0, w1 = _turn_z(ch, -sh, w0, w1)
+    ew, ex, ey, ez = qexp(dt * w0, dt * w1, dt * w2)
+    nw, nx, ny, nz = qmul(ew, ex, ey, ez, q[n_, 0], q[n_, 1], q[n_, 2], q[n_, 3])
+    q[n_, 0], q[n_, 1], q[n_, 2], q[n_, 3] = qnormalize(nw, nx, ny, nz)
+    w0, w1 = _turn_z(ch, -sh, w0, w1)
+    w[n_, 0] = w0
+    w[n_, 1] = w1
+    w[n_, 2] = w2
+
+
+@njit(cache=True, parallel=True)
+def nodes_kick_drift_cw(x, v, q, w, f, t, inv_mass, inv_inertia, dt, n):
+    """The nodes' half kick and drift in the Hill frame: the drift is the exact CW flow."""
+    cf = cw_coefficients(n, dt)
+    ch = math.cos(0.5 * n * dt)
+    sh = math.sin(0.5 * n * dt)
+    if x.shape[0] >= PARALLEL_MIN:
+        for k in prange(x.shape[0]):
+            _kick_drift_cw(k, x, v, q, w, f, t, inv_mass, inv_inertia, dt, cf, ch, sh)
+    else:
+        for k in range(x.shape[0]):
+            _kick_drift_cw(k, x, v, q, w, f, t, inv_mass, inv_inertia, dt, cf, ch, sh)
+
+
+@njit(cache=True)
+def cw_drift_body(k, pos, v, L, q, dt, n):
+    """Exact CW flow of body k's centre over dt and the frame's turn of its momentum and
+    orientation (the torque-free rotation is done by the caller; the two commute)."""
+    cf = cw_coefficients(n, dt)
+    x0, x1, x2, v0, v1, v2 = cw_apply(cf, pos[k, 0], pos[k, 1], pos[k, 2], v[k, 0], v[k, 1],
+                                      v[k, 2])
+    pos[k, 0] = x0
+    pos[k, 1] = x1
+    pos[k, 2] = x2
+    v[k, 0] = v0
+    v[k, 1] = v1
+    v[k, 2] = v2
+    c = math.cos(n * dt)
+    s = math.sin(n * dt)
+    L[k, 0], L[k, 1] = _turn_z(c, -s, L[k, 0], L[k, 1])
+    ew, ex, ey, ez = qexp(0.0, 0.0, -n * dt)
+    nw, nx, ny, nz = qmul(ew, ex, ey, ez, q[k, 0], q[k, 1], q[k, 2], q[k, 3])
+    q[k, 0], q[k, 1], q[k, 2], q[k, 3] = qnormalize(nw, nx, ny, nz)
+
+
+@njit(cache=True, inline="always")
+def _inertia_times_xhat(q, Ip, k):
+    """I_world x_hat of body k (x_hat = radial unit vector of the Hill frame)."""
+    b0, b1, b2 = qrot_inv(q[k, 0], q[k, 1], q[k, 2], q[k, 3], 1.0, 0.0, 0.0)
+    return qrot(q[k, 0], q[k, 1], q[k, 2], q[k, 3], Ip[k, 0] * b0, Ip[k, 1] * b1,
+                Ip[k, 2] * b2)
+
+
+@njit(cache=True, inline="always")
+def _inertia_times_zhat(q, Ip, k):
+    b0, b1, b2 = qrot_inv(q[k, 0], q[k, 1], q[k, 2], q[k, 3], 0.0, 0.0, 1.0)
+    return qrot(q[k, 0], q[k, 1], q[k, 2], q[k, 3], Ip[k, 0] * b0, Ip[k, 1] * b1,
+                Ip[k, 2] * b2)
+
+
+@njit(cache=True)
+def orbit_body_forces(motion, pos, q, mass, Ip, f, tq, n, gravity_gradient):
+    """Tidal force and the frame's centrifugal torque ``n^2 z_hat x (I z_hat)`` on hinge
+    bodies (a free body has both inside its exact drift), and the gravity-gradient torque on
+    free and hinge bodies."""
+    n2 = n * n
+    for k in range(motion.shape[0]):
+        m = motion[k]
+        if m == 2:  # HINGE
+            f[k, 0] += mass[k] * 3.0 * n2 * pos[k, 0]
+            f[k, 2] -= mass[k] * n2 * pos[k, 2]
+            e0, e1, e2 = _inertia_times_zhat(q, Ip, k)
+            tq[k, 0] -= n2 * e1
+            tq[k, 1] += n2 * e0
+        if gravity_gradient and (m == 2 or m == 3):
+            d0, d1, d2 = _inertia_times_xhat(q, Ip, k)
+            # 3 n^2 x_hat x (I x_hat), x_hat = (1, 0, 0)
+            tq[k, 1] -= 3.0 * n2 * d2
+            tq[k, 2] += 3.0 * n2 * d1
+
+
+def orbit_energy(system) -> float:
+    """The orbital part of the Jacobi integral of the current state (J): the tidal potential
+    of free nodes and free/hinge bodies, -m (3/2 n^2 x^2 - 1/2 n^2 z^2), the frame term of
+    the free bodies' rotational energy (-1/2 n L_z: with ``w`` relative to the frame the
+    engine's kinetic energy 1/2 w.L plus this is 1/2 w_rel.I w_rel - 1/2 Omega.I Omega plus a
+    constant), and the gravity-gradient potential when it is on."""
+    n = float(system.mission.orbit[0])
+    if n == 0.0:
+        return 0.0
+    from .rotations import quat_to_matrix
+    FREE, HINGE = 3, 2  # engine.bodies' motion codes (bodies imports this module)
+    nd, bd = system.nodes, system.bodies
+    free = nd.inv_mass > 0
+    n2 = n * n
+    xs = nd.x[free]
+    e = -float(np.sum(nd.mass[free] * (1.5 * n2 * xs[:, 0] ** 2 - 0.5 * n2 * xs[:, 2] ** 2)))
+    for k in range(bd.pos.shape[0]):
+        if bd.motion[k] in (FREE, HINGE):
+            p = bd.pos[k]
+            e -= float(bd.mass[k] * (1.5 * n2 * p[0] ** 2 - 0.5 * n2 * p[2] ** 2))
+            R = quat_to_matrix(bd.q[k])
+            Iw = R @ np.diag(bd.Ip[k]) @ R.T
+            if bd.motion[k] == FREE:
+                e -= 0.5 * n * float(bd.L[k, 2])
+            else:  # the frame's centrifugal potential of a hinge body's rotation
+                e -= 0.5 * n2 * float(Iw[2, 2])
+            if system.mission.orbit[1] != 0.0:
+                e += 0.5 * n2 * (float(np.trace(Iw)) - 3.0 * float(Iw[0, 0]))
+    return e

@@ -1,0 +1,127 @@
+"""Sampled PD/PID pose controllers (engine.control) against linear control theory:
+the steady-state error under a constant disturbance, saturation per body axis, deadband."""
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from engine.rotations import qlog
+
+AL = {"youngs_modulus": 70e9, "density": 2700.0}
+MASS = 2.0
+INERTIA = (0.3, 0.5, 0.4)
+
+
+def _scene(controller, *, force=(0, 0, 0), torque=(0, 0, 0), duration=40.0, dt=0.01,
+           orientation=(1.0, 0.0, 0.0, 0.0), position=(0.0, 0.0, 0.0)):
+    return engine.parse_scene({
+        "materials": {"al": AL},
+        "bodies": [{"name": "chaser", "material": "al",
+                    "shape": {"type": "box", "size": [1.0, 0.8, 0.6]},
+                    "mass_properties": {"mass": MASS,
+                                        "inertia": [[INERTIA[0], 0, 0], [0, INERTIA[1], 0],
+                                                    [0, 0, INERTIA[2]]]},
+                    "motion": {"type": "free"},
+                    "pose": {"position": list(position), "orientation": list(orientation)},
+                    "external_force": list(force), "external_torque": list(torque)}],
+        "controllers": [dict({"name": "hold", "body": "chaser"}, **controller)],
+        "run": {"duration": duration, "dt": dt, "record_interval": 0.5}})
+
+
+def _mesh_rotvec(system):
+    # q_mesh = q_body q_bm; the box's mesh axes are its principal axes (diagonal inertia)
+    from engine import control as C
+    q = system.bodies.q[0]
+    qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
+    from engine.rotations import quat_mul_np
+    qm = quat_mul_np(q, qbm)
+    if qm[0] < 0:
+        qm = -qm
+    return np.array(qlog(*qm))
+
+
+def test_pd_steady_state_error_is_disturbance_over_stiffness():
+    # PD theory: a constant disturbance F_d against kp e + kd e' settles at e = -F_d / kp,
+    # whatever the sampling (the held command is constant at equilibrium). Critically
+    # damped (kd = 2 sqrt(kp m)): after 40 s = 57 time constants the transient is below
+    # 1e-20, so the tolerance only covers rounding. A factor in kp, a sign in the error, or
+    # a disturbance lost in the hold would each be off by the whole error.
+    kp, kpa = 2.0, 0.5
+    kd = 2 * math.sqrt(kp * MASS)
+    kda = 2 * math.sqrt(kpa * max(INERTIA))
+    f_d = np.array([0.5, -0.2, 0.3])
+    t_d = np.array([0.01, 0.02, -0.015])
+    sc = _scene({"position": [1.0, 2.0, 3.0], "sample_interval": 0.05,
+                 "position_gains": {"proportional": kp, "derivative": kd},
+                 "attitude_gains": {"proportional": kpa, "derivative": kda}},
+                force=f_d, torque=t_d, duration=60.0)
+    sys = engine.build(sc)
+    assert "controllers" in sys.stages and "external_body_loads" in sys.stages
+    engine.run(sys)
+    assert np.allclose(sys.bodies.pos[0], np.array([1.0, 2.0, 3.0]) + f_d / kp, rtol=0,
+                       atol=1e-9)
+    # the attitude law is kp * rotation vector, so the equilibrium is exact: rotvec = T_d/kp
+    assert np.allclose(_mesh_rotvec(sys), t_d / kpa, rtol=0, atol=1e-8)
+    from engine.run import controller_record
+    rec = controller_record(sys, 0)
+    # the applied force balances the disturbance (world = body axes at the target attitude
+    # up to the small steady rotation, so compare the world impulse rate instead)
+    assert np.allclose(rec["position_error"], -f_d / kp, atol=1e-9)
+
+
+def test_pid_integral_removes_the_steady_state_error():
+    # with an integral term the equilibrium needs e = 0 (ki * integral(e) carries F_d);
+    # s^3 + (kd/m) s^2 + (kp/m) s + ki/m, Routh-stable as kd kp > ki m. After 120 s the slowest
+    # pole (~0.3/s) has decayed by e^-36: the error must be below 1e-6 of the PD error.
+    kp, ki = 2.0, 0.5
+    kd = 2 * math.sqrt(kp * MASS)
+    f_d = np.array([0.5, -0.2, 0.3])
+    sc = _scene({"position": [0.0, 0.0, 0.0], "sample_interval": 0.05,
+                 "position_gains": {"proportional": kp, "derivative": kd, "integral": ki}},
+                force=f_d, duration=120.0, dt=0.02)
+    sys = engine.build(sc)
+    engine.run(sys)
+    assert np.linalg.norm(sys.bodies.pos[0]) < 1e-6 * np.linalg.norm(f_d / kp)
+
+
+def test_saturation_is_per_body_axis():
+    # the chaser is turned 90 deg about z (its x axis along world y). A far target along
+    # world +x asks for a large force along body -y, clipped to max_force[1] = 0.2 N: the
+    # body accelerates at 0.2 / m along world x. Clipping in world axes would give 0.1 / m.
+    s = math.sqrt(0.5)
+    sc = _scene({"position": [100.0, 0.0, 0.0], "sample_interval": 0.1,
+                 "orientation": [s, 0.0, 0.0, s],
+                 "position_gains": {"proportional": 50.0},
+                 "attitude_gains": {"proportional": 1.0, "derivative": 1.0},
+                 "max_force": [0.1, 0.2, 0.3], "max_torque": [0.01, 0.01, 0.01]},
+                orientation=(s, 0.0, 0.0, s), duration=10.0)
+    sys = engine.build(sc)
+    res = engine.run(sys)
+    with res.open() as r:
+        app = r.series("controllers/hold/applied_force")
+        cmd = r.series("controllers/hold/commanded_force")
+    assert np.all(np.abs(app) <= np.array([0.1, 0.2, 0.3]) * (1 + 1e-12))
+    assert np.all(np.abs(cmd[1:, 1]) > 0.2)            # it really was saturated
+    # x(t) = a t^2 / 2 with a = 0.2 N / 2 kg, thrust from the first sample on (t = dt: the
+    # 1e-3 relative tolerance covers starting one step of 10 ms late in 10 s, 2 dt / t)
+    a = 0.2 / MASS
+    t = sys.time
+    assert sys.bodies.pos[0, 0] == pytest.approx(0.5 * a * t * t, rel=3e-3)
+    assert np.linalg.norm(sys.bodies.pos[0, 1:]) < 1e-9
+    # Delta-v is the integral of |F| / m: 0.2 N / 2 kg for 10 s = 1 m/s
+    from engine.run import controller_record
+    assert controller_record(sys, 0)["delta_v"] == pytest.approx(a * t, rel=3e-3)
+
+
+def test_deadband_commands_nothing_inside_it():
+    # 1 cm from the target with a 2 cm deadband: no force, the body stays put; with a 5 mm
+    # deadband it is pulled in.
+    for band, moves in ((0.02, False), (0.005, True)):
+        sc = _scene({"position": [0.01, 0.0, 0.0], "sample_interval": 0.1,
+                     "position_deadband": band,
+                     "position_gains": {"proportional": 1.0, "derivative": 2.0}},
+                    duration=1.0)
+        sys = engine.build(sc)
+        engine.run(sys)
+        assert (abs(sys.bodies.pos[0, 0]) > 1e-4) == moves
