@@ -16,8 +16,6 @@ import threading
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
-
 from . import ui_scene as us
 from . import ui_view as uv
 from .panels.common import POLL_S, STUDIES_POLL_S
@@ -91,25 +89,6 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self._build_run_gui(gui)
         self._build_results_gui(gui)
         self._build_studies_gui(gui)
-
-    def _on_connect(self, client) -> None:
-        """Point a client's camera at the design."""
-        try:
-            b = uv.design_bristles(self.scene) if uv.n_design_segments(self.scene) < 200_000 \
-                else None
-            if b is not None and len(b.positions):
-                lo, hi = b.positions.min(0), b.positions.max(0)
-                c = 0.5 * (lo + hi) * uv.VIEW_SCALE
-                size = max(float(np.max(hi - lo)) * uv.VIEW_SCALE, 20.0)
-            else:
-                c, size = np.zeros(3), 50.0
-            client.camera.up_direction = (0.0, 0.0, 1.0)
-            # viser moves the look-at point along with the position: set it last
-            client.camera.position = tuple(float(x) for x in
-                                           c + np.array([1.2, -1.6, 0.9]) * size * 1.2)
-            client.camera.look_at = tuple(float(x) for x in c)
-        except Exception:
-            pass
 
     # ----------------------------------------------------------------- polling
     def poll(self, now: float) -> None:
