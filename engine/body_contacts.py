@@ -20,7 +20,8 @@ from .bonds import PARALLEL_MIN
 from .contact_law import (clear_history, contact_force, contact_with_history,
                           normal_stiffness, smoothstep)
 from .contacts import add_segment_force, segment_point_velocity
-from .geometry import segment_point_closest, segment_triangle_closest
+from .jit import item_kernel
+from .geometry import row3, segment_point_closest, segment_triangle_closest
 from .rotations import qrot, qrot_inv
 
 
@@ -61,7 +62,7 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
             i1 = bj[s]
             reach = seg_rmax[s] + skin
             if sphere_r[k] > 0.0:
-                u = segment_point_closest(x[i0], x[i1], pos[k])
+                u = segment_point_closest(row3(x, i0), row3(x, i1), row3(pos, k))
                 ex = x[i0, 0] + u * (x[i1, 0] - x[i0, 0]) - pos[k, 0]
                 ey = x[i0, 1] + u * (x[i1, 1] - x[i0, 1]) - pos[k, 1]
                 ez = x[i0, 2] + u * (x[i1, 2] - x[i0, 2]) - pos[k, 2]
@@ -114,7 +115,7 @@ def carry_body_history(old_s, old_b, old_ft, n_old, new_s, new_b, new_ft, n_new,
                 new_ft[c * BSLOT + m, a] = old_ft[i * BSLOT + m, a] if found else 0.0
 
 
-@njit(cache=True)
+@item_kernel
 def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_cell,
                      grid_dims, grid_base, grid_start, grid_tris):
     """Closest triangle of body k to the segment l0-l1 (body frame) among the grid cells its
@@ -173,7 +174,7 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_ce
     return best, bs, bu, bv, bw, bd
 
 
-@njit(cache=True)
+@item_kernel
 def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, grid_dims,
                      grid_base, grid_start, grid_tris):
     """The closest triangle of body k to the point p (body frame) at any distance, by
@@ -199,7 +200,7 @@ def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, gri
         r = min(2.0 * r, far)
 
 
-@njit(cache=True)
+@item_kernel
 def deep_closest(k, p, r0, verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                  grid_base, grid_start, grid_tris):
     """For a point p (body frame) of a closed (watertight) mesh body k: its closest triangle
@@ -229,7 +230,7 @@ def deep_closest(k, p, r0, verts, tris, tnormal, pnormal, grid_origin, grid_cell
     return -1, 0.0, 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
+@item_kernel
 def feature_normal(tri, u, v, w, pnormal):
     """The angle-weighted pseudo-normal (Baerentzen & Aanaes 2005) of the feature of triangle
     ``tri`` that holds the closest point with barycentric weights (u, v, w): the face, an edge
@@ -300,7 +301,7 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
                                     dt)
 
 
-@njit(cache=True)
+@item_kernel
 def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                             cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
@@ -336,7 +337,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             elif slot_k == 1:
                 s = 1.0
             else:
-                s = segment_point_closest(x[i0], x[i1], bpos[k])
+                s = segment_point_closest(row3(x, i0), row3(x, i1), row3(bpos, k))
                 weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
                 dweight = (_dsmooth01(min(s, 1.0 - s) / BODY_CROSS_END) / BODY_CROSS_END
                            * (1.0 if s < 0.5 else -1.0))
@@ -495,7 +496,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                         qw, qx, qy, qz, xf[slot, row, 0], xf[slot, row, 1], xf[slot, row, 2])
 
 
-@njit(cache=True)
+@item_kernel
 def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
     """Forces -g grad s for s = (c - x0).e / e.e, the segment's point closest to the point c
     (interior): rows 0, 1 on the segment's nodes, row 2 on c, row 3 (torque) untouched."""
@@ -526,7 +527,7 @@ def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
 EDGE_FADE_GRADIENT = False
 
 
-@njit(cache=True)
+@item_kernel
 def _mesh_fade_forces(l0, l1, s, u, v, w, va, vb, vc, g, out):
     """``_point_fade_forces`` for a mesh feature in the body frame: a vertex (one barycentric
     weight 1), or an edge, where s and the edge's parameter t solve the segment-segment

@@ -21,7 +21,8 @@ from numba import njit, prange
 
 from .bonds import PARALLEL_MIN
 from .contact_law import clear_history, contact_with_history, normal_stiffness, smoothstep
-from .geometry import segment_point_closest, segment_segment_closest
+from .jit import item_kernel
+from .geometry import row3, segment_point_closest, segment_segment_closest
 
 
 @njit(cache=True)
@@ -117,7 +118,7 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
                         ja = bj[a]
                         ib = bi[b]
                         jb = bj[b]
-                        s, t = segment_segment_closest(x[ia], x[ja], x[ib], x[jb])
+                        s, t = segment_segment_closest(row3(x, ia), row3(x, ja), row3(x, ib), row3(x, jb))
                         ex = (x[ia, 0] + s * (x[ja, 0] - x[ia, 0])
                               - x[ib, 0] - t * (x[jb, 0] - x[ib, 0]))
                         ey = (x[ia, 1] + s * (x[ja, 1] - x[ia, 1])
@@ -192,7 +193,7 @@ def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg
                            overlap_ratio, xf, dt)
 
 
-@njit(cache=True)
+@item_kernel
 def point_segment_max_overlap(x, rad, j0, j1, px, py, pz, t):
     """Refine t (start: the closest point of segment j0-j1 to p) to the maximum of
     rb(t) - |p - Q(t)| for a tapered segment (1-D Newton, clamped)."""
@@ -231,7 +232,7 @@ def _point_overlap(x, rad, j0, j1, px, py, pz, reject=-math.inf):
     (without the point's own radius), and its parameter. Where that overlap is surely at
     most ``reject`` (``max(rb) - min |p - Q|`` bounds it), the taper's refinement is skipped
     and the bound returned: a caller that only tests ``> reject`` gets the same answer."""
-    t = segment_point_closest(x[j0], x[j1], (px, py, pz))
+    t = segment_point_closest(row3(x, j0), row3(x, j1), (px, py, pz))
     if reject > -math.inf:
         qx = x[j0, 0] + t * (x[j1, 0] - x[j0, 0]) - px
         qy = x[j0, 1] + t * (x[j1, 1] - x[j0, 1]) - py
@@ -246,7 +247,7 @@ def _point_overlap(x, rad, j0, j1, px, py, pz, reject=-math.inf):
     return rad[j0] + t * (rad[j1] - rad[j0]) - math.sqrt(qx * qx + qy * qy + qz * qz), t
 
 
-@njit(cache=True)
+@item_kernel
 def best_of_neighbours(x, rad, bi, bj, bond_prev, bond_next, seg, ov, px, py, pz):
     """A point touches a bristle where its overlap with the bristle's segments is a local
     maximum: keep segment ``seg`` only if its overlap ``ov`` beats the previous segment's
@@ -272,7 +273,7 @@ def _dsmooth01(u):
     return 6.0 * u * (1.0 - u)
 
 
-@njit(cache=True)
+@item_kernel
 def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
     """Extra nodal forces of a crossing contact, whose energy is U = w * 1/2 kn ov^2 with
     a weight w(angle, s, t) and ov = ra(s) + rb(t) - d: the applied force kn w ov n covers the
@@ -320,7 +321,7 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
             out[n, c] = -grad
 
 
-@njit(cache=True)
+@item_kernel
 def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next, seg_material,
                    pa, pb, ft, friction, E, mu_table, kt_table, zeta_table,
                    active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
@@ -329,7 +330,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
     base = p * NSLOT
     # the capsules apart (axis distance beyond both segments' largest radii): no slot can
     # touch, since every slot's points lie on the axes
-    s0, t0 = segment_segment_closest(x[bi[a]], x[bj[a]], x[bi[b]], x[bj[b]])
+    s0, t0 = segment_segment_closest(row3(x, bi[a]), row3(x, bj[a]), row3(x, bi[b]), row3(x, bj[b]))
     gx = (x[bi[a], 0] + s0 * (x[bj[a], 0] - x[bi[a], 0])
           - x[bi[b], 0] - t0 * (x[bj[b], 0] - x[bi[b], 0]))
     gy = (x[bi[a], 1] + s0 * (x[bj[a], 1] - x[bi[a], 1])
@@ -383,7 +384,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             qy_ = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
             qz_ = x[j0, 2] + t * (x[j1, 2] - x[j0, 2])
         else:
-            s, t = segment_segment_closest(x[i0], x[i1], x[j0], x[j1])
+            s, t = segment_segment_closest(row3(x, i0), row3(x, i1), row3(x, j0), row3(x, j1))
             d1x = x[i1, 0] - x[i0, 0]
             d1y = x[i1, 1] - x[i0, 1]
             d1z = x[i1, 2] - x[i0, 2]
