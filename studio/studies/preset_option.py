@@ -21,6 +21,22 @@ def add_preset_option(parser, study: str, own: Sequence[str], instead_of: str) -
              f"{', '.join(own)}; another way to give {instead_of}")
 
 
+def _name_of(preset: str, own: Mapping[str, object]) -> str:
+    """``preset`` itself, or the name of the study's preset whose file it is (the HTTP API
+    passes presets as their files)."""
+    from pathlib import Path
+
+    if preset in own:
+        return preset
+    try:
+        from studio.presets import preset_path
+
+        path = Path(preset).resolve()
+        return next((n for n in own if preset_path(n).resolve() == path), preset)
+    except (ImportError, KeyError, OSError):
+        return preset
+
+
 def chosen(study: str, presets: Sequence[str], own: Mapping[str, object],
            other_value: str, other_default: str, other_option: str) -> list:
     """The study's choices (``own``: preset name -> choice) named by ``presets``, in their
@@ -29,6 +45,7 @@ def chosen(study: str, presets: Sequence[str], own: Mapping[str, object],
     both choose the same runs."""
     if not presets:
         return []
+    presets = [_name_of(p, own) for p in presets]
     bad = [p for p in presets if p not in own]
     if bad:
         raise PresetChoiceError(

@@ -96,6 +96,35 @@ def test_rod_and_spin_refuse_foreign_presets_and_double_choices(name, other, tmp
     assert not (tmp_path / "a" / "runs").exists() and not (tmp_path / "b" / "runs").exists()
 
 
+@pytest.mark.parametrize("name", sorted(OWN_PRESETS))
+def test_rod_and_spin_take_their_presets_by_name_or_file(name):
+    """The HTTP API passes a preset as its file (studio.studies.registry): the same choice."""
+    from studio.presets import preset_path
+    from studio.studies.preset_option import chosen
+
+    own = {p: i for i, p in enumerate(OWN_PRESETS[name])}
+    last = OWN_PRESETS[name][-1]
+    assert chosen(name, [last, str(preset_path(OWN_PRESETS[name][0]))], own, "", "", "") \
+        == [len(own) - 1, 0]
+
+
+@pytest.mark.parametrize("name", sorted(RUNNERS))
+def test_the_http_api_takes_the_same_names(name):
+    """A job's options dict uses the command line's names: ``nodes`` (rod and spin keep the
+    destination ``n_nodes`` of their older spelling, still accepted) and ``preset``."""
+    from studio.studies.registry import study_argv
+
+    study = name.split()[-1]
+    preset = OWN_PRESETS.get(name, ("wedge_60",))[0]
+    extra = {"quantity": "wedge_force@1mm", "ladder": "qs_increments=1,2"} \
+        if study == "convergence" else {}
+    argv = study_argv(study, {"nodes": 5, "preset": preset, **extra})
+    assert "--nodes=5" in argv
+    assert any(a.startswith("--preset=") and a.endswith(f"{preset}.json") for a in argv)
+    if name in OWN_PRESETS:
+        assert study_argv(study, {"n_nodes": 5}) == ["--nodes=5"]
+
+
 def test_rod_preset_runs_that_excitation_only(tmp_path):
     """``study rod --preset rod_tip_impulse`` runs the tip impulse case and nothing else (not
     the default three excitations and the 24-frequency response); about 15 CPU-s."""
