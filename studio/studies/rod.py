@@ -557,7 +557,8 @@ def add_parser(study_subparsers) -> None:
                    help="comma-separated subset of: " + ", ".join(CASES + ("response",)))
     add_preset_option(p, "rod", list(PRESETS.values()), "the excitation cases (--cases)")
     p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36)")
+                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36; "
+                        "--n-nodes is the older spelling, deprecated)")
     p.add_argument("--free-duration", type=float, default=None, metavar="S",
                    help="free vibration recorded after the excitation (default: the "
                         "presets', 4.5 s)")

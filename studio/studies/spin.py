@@ -543,7 +543,8 @@ def add_parser(study_subparsers) -> None:
     p.add_argument("--configs", default="1,2,3,4,5,6",
                    help="brush configurations (default all six)")
     p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the presets', 6)")
+                   metavar="N", help="nodes per bristle (default: the presets', 6; --n-nodes is the "
+                        "older spelling, deprecated)")
     p.add_argument("--omega0", type=float, default=None, metavar="RAD_PER_S",
                    help="initial spin (default: the presets', 10 rad/s)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
