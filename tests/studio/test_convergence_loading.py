@@ -15,6 +15,7 @@ import pytest
 
 from studio.cli import main
 from studio.studies import convergence as cv
+from studio.studies.convergence import protocol_ladder
 from studio.studies.wedge import INCREMENT_TOLERANCE, PROTOCOL_DEFAULTS
 
 LADDER = (1, 2, 4)
@@ -130,3 +131,22 @@ def test_the_scene_is_given_once(tmp_path, capsys):
     assert "give the scene once" in capsys.readouterr().err
     assert main(["convergence", "--preset", "no_such_preset", *args]) == 2
     assert "no such scene file or preset" in capsys.readouterr().err
+
+
+def test_a_rate_ladder_sets_the_move_acceleration_of_each_level():
+    """``qs_max_acceleration=16,8,4``: each level's protocol has that a_m and nothing else
+    changed; h is a_m (bug caught: the setting written to the dynamic method's
+    max_acceleration, which the quasi-static cycle does not use)."""
+    scene = json.loads(PRESET_FILE.read_text())
+    key, values = protocol_ladder.parse_protocol_ladder("qs_max_acceleration=16,8,4")
+    levels = protocol_ladder.protocol_levels(scene, cv.parse_quantity("wedge_force@3mm"),
+                                                key, values)
+    assert [lv.protocol["qs_max_acceleration"] for lv in levels] == [16.0, 8.0, 4.0]
+    base = {k: v for k, v in levels[0].protocol.items() if k != "qs_max_acceleration"}
+    for lv in levels:
+        assert {k: v for k, v in lv.protocol.items() if k != "qs_max_acceleration"} == base
+    assert base["max_acceleration"] == scene["bodies"][0]["motion"]["profile"]["max_acceleration"]
+    assert base["n_steps"] == 3 and base["qs_increments"] == PROTOCOL_DEFAULTS["qs_increments"]
+    assert cv.level_resolution(levels)[0] == [16.0, 8.0, 4.0]
+    assert len({lv.run_id for lv in levels}) == 3
+    assert protocol_ladder.parse_protocol_ladder("n_nodes=3,5") is None
