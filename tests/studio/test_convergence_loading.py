@@ -100,6 +100,9 @@ def test_the_table_names_the_setting(increment_ladder, capsys):
     assert text.splitlines()[0].split()[0] == "qs_increments"
     assert "whole curve, level 1 against 0" in text
     assert np.isfinite(json.loads((out / "convergence.json").read_text())["reference"])
+    with h5py.File(out / "convergence.h5", "r") as f:
+        assert f["convergence"].attrs["setting"] == "qs_increments"
+        assert list(f["convergence/setting"][()]) == list(LADDER)
 
 
 @pytest.mark.parametrize("argv, message", [
