@@ -176,6 +176,8 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
                                  "must be an object of option: value")])
     actions = {a.dest: a for a in parser._actions if a.dest not in ("help", "func")}
     allowed = sorted(d for d in actions if d not in SERVER_OPTIONS)
+    by_flag = {f: a for a in actions.values() for f in a.option_strings
+               if a.dest not in SERVER_OPTIONS}
     problems: list = []
     argv: list[str] = []
     positional: list[str] = []
@@ -184,12 +186,15 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
         if k in SERVER_OPTIONS:
             problems.append((str(key), value, f"not accepted: {SERVER_OPTIONS[k]}"))
             continue
-        a = actions.get(k)
+        # by its destination, or by its flag (``nodes`` is --nodes everywhere, though rod and
+        # spin keep the destination n_nodes of their older spelling)
+        a = actions.get(k) or by_flag.get("--" + k.replace("_", "-"))
         if a is None:
             problems.append((str(key), value, f"unknown option of study {study!r}; "
                                               f"options: {allowed}"))
             continue
-        flag = max(a.option_strings, key=len) if a.option_strings else None
+        flag = next((f for f in a.option_strings if f.startswith("--")),
+                    None) if a.option_strings else None
         try:
             if isinstance(a, argparse._StoreTrueAction):
                 if not isinstance(value, bool):
