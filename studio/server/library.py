@@ -82,7 +82,8 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
         alive = jobs.workers_info()
         state = jobs.health()
         return {"status": state["status"], "problems": state["problems"],
-                "free_bytes": state["free_bytes"], "version": __version__, "workers": jobs.n_workers,
+                "free_bytes": state["free_bytes"], "used_bytes": state["used_bytes"],
+                "quota_bytes": state["quota_bytes"], "version": __version__, "workers": jobs.n_workers,
                 "threads_per_worker": jobs.threads_per_worker, "workers_alive": len(alive),
                 "worker_processes": [{k: w[k] for k in ("pid", "ready", "numba_threads")}
                                      for w in alive],
