@@ -53,7 +53,7 @@ def studies_router(jobs: JobManager, guarded: list):
                                                   "additionalProperties": False,
                                                   "properties": {
                       "study": {"type": "string", "enum": list(STUDIES)},
-                      "options": {"type": "object", "description": "the study's command-line "
+                      "options": {"type": ["object", "null"], "description": "the study's command-line "
                                   "options by name, e.g. {\"preset\": \"wedge_60\", "
                                   "\"depth_mm\": 2, \"nodes\": 3} (GET /api/study-types)"},
                       "name": {"type": ["string", "null"]}}, "required": ["study"]}}}}})
@@ -75,6 +75,10 @@ def studies_router(jobs: JobManager, guarded: list):
             return option_error(StudyOptionError([(
                 "(body)", extra, "unknown key(s): the body holds 'study', 'options' (the "
                                  "study's options) and 'name'")]))
+        if not isinstance(data.get("options"), (dict, type(None))):
+            return option_error(StudyOptionError([(
+                "options", data["options"], "must be an object of the study's options "
+                                            "(GET /api/study-types), or null")]))
         name = data.get("name")
         if name is not None and not isinstance(name, str):
             return option_error(StudyOptionError([("name", name, "must be text")]))

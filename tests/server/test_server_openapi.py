@@ -112,3 +112,11 @@ def test_library_and_studies_answers_match_the_document(contract):
     # a wrong method: 405, and Allow names every method of the path (GET and POST here)
     r = c.server.client.put("/api/runs", json={})
     assert r.status_code == 405 and set(r.headers["allow"].split(", ")) >= {"GET", "POST"}
+
+
+def test_study_options_must_be_an_object(contract):
+    # schemathesis: "options": false was read as no options and queued the study
+    for bad in (False, [], "x", 0):
+        r = contract.call("POST", "/api/studies", "/api/studies",
+                          json={"study": "rod", "options": bad})
+        assert r.status_code == 422 and r.json()["detail"][0]["option"] == "options"
