@@ -107,14 +107,16 @@ class Server:
 def case_schemathesis(tmp: Path, args) -> str:
     if not args.schemathesis:
         return "skipped: no --schemathesis PATH (pip install schemathesis in a venv)"
-    server = Server(tmp / "data", workers=1)
+    token = ("--token", "schemathesis-token") if args.token else ()
+    server = Server(tmp / "data", workers=1, args=token)
     try:
         t0 = time.monotonic()
         out = subprocess.run(
             [args.schemathesis, "run", f"{server.url}/openapi.json", "--checks", "all",
              "--phases", "examples,coverage,fuzzing", "--max-examples",
-             str(args.max_examples), "-w", "2", "--request-timeout", "30",
-             "--no-color"], capture_output=True, text=True, timeout=900).stdout
+             str(args.max_examples), "-w", "2", "--request-timeout", "30", "--no-color",
+             *(["-H", f"Authorization: Bearer {token[1]}"] if token else [])],
+            capture_output=True, text=True, timeout=900).stdout
         wall = time.monotonic() - t0
     finally:
         server.stop()
@@ -124,8 +126,10 @@ def case_schemathesis(tmp: Path, args) -> str:
     access = server.log.read_text()
     server_errors = len(re.findall(r'HTTP/1\.[01]" 5\d\d', access))
     requests = len(re.findall(r'HTTP/1\.[01]" \d\d\d', access))
-    return (f"{cases.group(1) if cases else '?'} cases, {requests} requests in {wall:.0f} s; "
-            f"5xx answers: {server_errors}; failures by check: "
+    unauthorized = len(re.findall(r'HTTP/1\.[01]" 401', access))
+    return (f"{'with a token: ' if token else ''}{cases.group(1) if cases else '?'} cases, "
+            f"{requests} requests in {wall:.0f} s; 5xx answers: {server_errors}; 401 "
+            f"answers: {unauthorized}; failures by check: "
             f"{failures or 'none'} (full output: {tmp / 'schemathesis.txt'})")
 
 
@@ -276,6 +280,9 @@ def main() -> int:
     p.add_argument("--schemathesis", default=shutil.which("schemathesis"),
                    help="the schemathesis command (default: on PATH)")
     p.add_argument("--max-examples", type=int, default=20)
+    p.add_argument("--token", action="store_true",
+                   help="schemathesis against a server with a bearer token (it sends it, "
+                        "and checks that requests without it are refused)")
     args = p.parse_args()
     for name in args.only:
         tmp = Path(tempfile.mkdtemp(prefix=f"brush-svc-{name}-"))

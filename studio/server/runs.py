@@ -84,7 +84,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
                             headers={"Location": f"/api/runs/{job_id}"})
 
     @router.get("/api/runs", dependencies=guarded, tags=["runs"], summary="List runs",
-                response_model=list[JobInfo])
+                response_model=list[JobInfo], responses=error_responses())
     def list_runs(status: Optional[Status] = Query(None, description="only runs with this "
                                                                      "status"),
                   limit: Optional[int] = Query(None, ge=1, le=100_000)):
