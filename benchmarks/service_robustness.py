@@ -116,7 +116,7 @@ def case_schemathesis(tmp: Path, args) -> str:
              "--phases", "examples,coverage,fuzzing", "--max-examples",
              str(args.max_examples), "-w", "2", "--request-timeout", "30", "--no-color",
              *(["-H", f"Authorization: Bearer {token[1]}"] if token else [])],
-            capture_output=True, text=True, timeout=900).stdout
+            capture_output=True, text=True, timeout=900, cwd=tmp).stdout  # (its cache dir)
         wall = time.monotonic() - t0
     finally:
         server.stop()
