@@ -26,10 +26,11 @@ from .spec import Scene
 BYTES_PER_NODE = 2_000
 BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
 BYTES_FIXED = 64 * 2**20   # the engine, numba and the interpreter
-# recorded bytes per node and frame of each per-node channel (float64 3-vectors, a
-# quaternion, a scalar); the other channels are per brush or body and small
-_CHANNEL_NODE_BYTES = {"nodes": 3 * 8 + 4 * 8, "node_velocities": 6 * 8, "bending": 8,
-                       "contacts": 8}
+# recorded bytes per node and frame of each per-node channel, as docs/results.md lays them
+# out: nodes/positions (N, 3) f8; nodes/velocities and angular_velocities (N, 3) f8 each;
+# bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels
+# (contacts: three counts) are per frame, brush or body and small
+_CHANNEL_NODE_BYTES = {"nodes": 3 * 8, "node_velocities": 6 * 8, "bending": 4}
 MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
 
 
