@@ -62,6 +62,7 @@ class RunPanel:
             v = us.validate(new)
             if v.ok:
                 self.scene = us.scene_dict(v.scene)
+            self._cost_key = None  # (refused: the boxes go back to the design's channels)
         self._update_run_cost()
 
     def _update_run_cost(self) -> None:
