@@ -255,7 +255,27 @@ def _frame(system: System, channels: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- failures
+def dt_cause(system: System) -> Optional[str]:
+    """When the scene's own ``run.dt`` exceeds the stability limit the build found
+    (``system.dt_stable``), any blow-up is the timestep's: the advice that says so (and
+    nothing else, which would send the user after tip randomness or contact stiffness)."""
+    given, bound = system.scene.run.dt, system.dt_stable
+    if given is None or not given > bound:
+        return None
+    return (f"The cause is the timestep: run.dt = {given:.3g} s is {given / bound:.3g} x the "
+            f"stability limit {bound:.3g} s of this scene; remove run.dt (automatic dt = "
+            f"{system.scene.run.dt_safety:g} x the limit) or set it below {bound:.3g} s.")
+
+
 def _instability(system: System, code: int) -> InstabilityError:
+    exc = _instability_by_code(system, code)
+    cause = dt_cause(system)
+    if cause is None:
+        return exc
+    return InstabilityError(exc.quantity, exc.where, exc.time, cause, detail=exc.detail)
+
+
+def _instability_by_code(system: System, code: int) -> InstabilityError:
     e = system.err
     t = system.time
     sc = system.scene
@@ -405,8 +425,8 @@ def run(system: System, until: Optional[float] = None,
                     raise InstabilityError(
                         "energy balance", "the whole scene", system.time,
                         f"total + dissipated - external work drifted by {bal - balance0:.3g} J "
-                        f"(largest energy {e_scale:.3g} J): lower run.dt_safety (now "
-                        f"{sc.run.dt_safety:g}).")
+                        f"(largest energy {e_scale:.3g} J): " + (dt_cause(system) or
+                        f"lower run.dt_safety (now {sc.run.dt_safety:g})."))
             return fr
 
         with clock.block():  # zero steps: compiles the step loop or loads it from the cache

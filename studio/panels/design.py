@@ -39,7 +39,7 @@ class DesignPanel:
                 self.md_preset = gui.add_markdown("", visible=False)
             self.tx_name = gui.add_text("design name", self.scene.get("name", "scene"))
             self.tx_name.on_update(self._on_name)
-            folders = {}
+            self.design_folders = folders = {}  # (the Run panel adds to "run")
             titles = {"brush": "Brush layout", "material": "Material", "body": "Body",
                       "motion": "Body motion", "environment": "Environment",
                       "run": "Run settings"}
