@@ -116,6 +116,8 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "mode": self.mode,
                 "scene_name": self.scene.get("name"),
                 "n_segments": int(self.view.n_instances if self.view.n_instances > 0 else 0),
+                "brush": int(self.sel.brush),
+                "body": int(self.sel.body),
                 "n_bristles": sum(int(b["rows"]) * int(b["columns"])
                                   for b in self.scene.get("brushes") or []),
                 "bodies": bodies,

@@ -14,10 +14,11 @@ import numpy as np
 from .. import ui_scene as us
 from .. import ui_view as uv
 from ..presets import load_preset_or_file, preset_names
+from .brushes import BrushSelector
 from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape, _safe_name
 
 
-class DesignPanel:
+class DesignPanel(BrushSelector):
     """Design tab of the studio (mixin)."""
 
     def _build_design_gui(self, gui) -> None:
@@ -46,6 +47,8 @@ class DesignPanel:
             for folder in us.FOLDERS:
                 folders[folder] = gui.add_folder(titles[folder],
                                                  expand_by_default=folder == "brush")
+            with folders["brush"]:
+                self._build_brush_selector(gui)
             with folders["material"]:
                 self.dd_material = gui.add_dropdown(
                     "material preset", ("(keep)",) + tuple(us.MATERIAL_PRESETS),
@@ -155,6 +158,7 @@ class DesignPanel:
         with self.lock:
             self.scene = us.scene_dict(scene)
             self.sel = us.Selection()
+            self._set_note(self.md_brush, "")
             self._clear_errors()
             self.set_mode("design", redraw=False)
             self.redraw_design()
@@ -191,6 +195,7 @@ class DesignPanel:
                 self.sel.body = min(self.sel.body, len(names) - 1)
                 self.dd_body.value = names[self.sel.body]
             self.bt_remove_body.disabled = not names
+            self._refresh_brush_selector()
             for f in us.FIELDS:
                 h = self.widgets[f.key]
                 ok = us.applicable(f, self.scene, self.sel)
