@@ -42,6 +42,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self.data_dir = Path(data_dir) if data_dir is not None else None
         self.lock = threading.RLock()
         self.scene: dict = us.scene_dict(scene)
+        self.loaded_scene: dict = us.scene_dict(scene)  # what has_edits compares with
         self.sel = us.Selection()
         self.errors: dict[str, list[str]] = {}
         self.mode = "design"          # design | live | playback
@@ -127,6 +128,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "plots": list(self.figures) if self.playback is not None else [],
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
+                "edited": self.has_edits(),
                 "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
                               "bristles": len(o.items), "message": str(o)}
                              for o in self.overlaps],

@@ -6,19 +6,19 @@ from __future__ import annotations
 
 import copy
 import time
-from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
 
 from .. import ui_scene as us
 from .. import ui_view as uv
-from ..presets import load_preset_or_file, preset_names
+from ..presets import preset_names
 from .brushes import BrushSelector
-from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape, _safe_name
+from .design_files import DesignFiles
+from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape
 
 
-class DesignPanel(BrushSelector):
+class DesignPanel(BrushSelector, DesignFiles):
     """Design tab of the studio (mixin)."""
 
     def _build_design_gui(self, gui) -> None:
@@ -87,8 +87,13 @@ class DesignPanel(BrushSelector):
         elif f.kind == "checkbox":
             h = gui.add_checkbox(label, bool(value), hint=hint)
         elif f.kind == "int":
-            h = gui.add_number(label, int(value) if value is not None else 0, step=1,
-                               hint=hint)
+            # a float box taking decimals, showing whole numbers: viser casts what a client
+            # sends to the type of the box's value and the page rounds to the box's
+            # precision (0 for step 1), so a typed 2.5 would reach the design as 2 instead
+            # of being refused
+            h = gui.add_number(label, float(int(value)) if value is not None else 0.0,
+                               step=1, hint=hint)
+            h.precision = 6
         else:
             h = gui.add_number(label, float(value) if value is not None else 0.0,
                                step=f.step or 0.001, hint=hint)
@@ -133,17 +138,18 @@ class DesignPanel(BrushSelector):
             except us.NotApplicable:
                 return False
             except ValueError as exc:
-                self._show_errors({key: [str(exc)]})
+                self._show_errors({key: [str(exc) + self._kept(f)]})
+                self._reset_box(f)
                 return False
             v = us.validate(new)
             if not v.ok:
                 named = us.fields_for_problems(v.problems, new, self.sel)
                 msgs = {k: [p.message for p in ps] for k, ps in named.items()}
                 mine = [p.message for p in v.problems]
-                msgs[key] = mine
                 msgs[key] = [f"{f.label} = {_fmt_value(value)} {f.unit}".rstrip() +
-                             " refused"] + mine
+                             " refused" + self._kept(f)] + mine
                 self._show_errors(msgs)
+                self._reset_box(f)
                 return False
             self.scene = us.scene_dict(v.scene)
             self._clear_errors()
@@ -153,12 +159,41 @@ class DesignPanel(BrushSelector):
             self.refresh_fields(skip=key if from_client else None)
             return True
 
+    def _kept(self, f: us.UiField) -> str:
+        """' (the design keeps 17)': what the box goes back to after a refusal."""
+        try:
+            value = us.get_ui_value(f, self.scene, self.sel)
+        except us.NotApplicable:
+            return ""
+        return f" (the design keeps {_fmt_value(value)} {f.unit}".rstrip() + ")"
+
+    def _reset_box(self, f: us.UiField) -> None:
+        """Put the design's value back into a field whose new value was refused, so that
+        the box never shows a value the design does not have (the message under the field
+        says what was typed)."""
+        try:
+            value = us.get_ui_value(f, self.scene, self.sel)
+        except us.NotApplicable:
+            return
+        self.widgets[f.key].value = self._box_value(f, value)
+
+    @staticmethod
+    def _box_value(f: us.UiField, value):
+        """A UI value as its box holds it (whole numbers in float boxes, see _add_widget)."""
+        if f.kind == "int":
+            return float(int(value))
+        if f.kind in ("vector3", "rpy"):
+            return tuple(float(c) for c in value)
+        return value
+
     def set_design(self, scene) -> None:
         """Replace the whole design (a preset, an upload) by a validated engine.Scene."""
         with self.lock:
             self.scene = us.scene_dict(scene)
+            self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
             self.sel = us.Selection()
-            self._set_note(self.md_brush, "")
+            for md in (self.md_brush, self.md_body):  # notes on the previous design
+                self._set_note(md, "")
             self._clear_errors()
             self.set_mode("design", redraw=False)
             self.redraw_design()
@@ -210,11 +245,7 @@ class DesignPanel(BrushSelector):
                 except us.NotApplicable:
                     h.visible = False
                     continue
-                if f.kind == "int":
-                    value = int(value)
-                elif f.kind in ("vector3", "rpy"):
-                    value = tuple(float(c) for c in value)
-                h.value = value
+                h.value = self._box_value(f, value)
             self._update_summary()
 
     def _update_summary(self) -> None:
@@ -408,103 +439,7 @@ class DesignPanel(BrushSelector):
             self.redraw_design()
             self.refresh_fields()
 
-    def _on_upload_mesh(self, event) -> None:
-        up = event.target.value
-        with self.lock:
-            if not (self.scene.get("bodies") or []):
-                self.scene = us.scene_dict(us.validate(us.add_body(self.scene)).scene)
-            try:
-                if self.jobs is not None:
-                    info = self.jobs.add_mesh(up.content, up.name)
-                    path = self.jobs.mesh_path(info["id"])
-                else:
-                    folder = (self.data_dir or Path(".")) / "meshes"
-                    folder.mkdir(parents=True, exist_ok=True)
-                    path = folder / Path(up.name).name
-                    path.write_bytes(up.content)
-                mesh = uv.shape_mesh({"type": "mesh", "file": str(path)})
-            except Exception as exc:
-                self._set_note(self.md_body, f"mesh {up.name!r} refused: {exc}")
-                return
-            new = copy.deepcopy(self.scene)
-            body = new["bodies"][self.sel.body]
-            extent = float(np.max(mesh.extents)) if len(mesh.vertices) else 1.0
-            # a file in millimetres is the usual case for CAD exports: scale it so the body
-            # is at most 0.5 m across
-            scale = 1.0 if extent <= 0.5 else 1e-3
-            body["shape"] = {"type": "mesh", "file": str(path), "scale": scale}
-            mp = body.get("mass_properties")
-            if mp and not mesh.is_watertight:
-                body["mass_properties"] = None
-            v = us.validate(new)
-            if not v.ok:
-                self._set_note(self.md_body, "; ".join(p.message for p in v.problems))
-                return
-            self.scene = us.scene_dict(v.scene)
-            self._set_note(self.md_body, f"mesh {up.name!r}: {len(mesh.faces):,} triangles, "
-                           f"{'closed' if mesh.is_watertight else 'open (no density)'}, "
-                           f"scale {scale:g}")
-            self.set_mode("design", redraw=False)
-            self.redraw_design()
-            self.refresh_fields()
-
     @staticmethod
     def _set_note(md, text: str) -> None:
         md.content = _md_escape(text)
         md.visible = bool(text)
-
-    # ----------------------------------------------------------------- presets
-    def _on_load_preset(self, event) -> None:
-        self.load_preset(self.dd_preset.value)
-
-    def load_preset(self, name: str) -> None:
-        import engine
-
-        try:
-            scene = load_preset_or_file(name)
-        except engine.SceneError as exc:
-            self._set_note(self.md_preset, "; ".join(str(p) for p in exc.problems))
-            return
-        self.set_design(scene)
-        if name in self.dd_preset.options:
-            self.dd_preset.value = name
-        self._set_note(self.md_preset, f"loaded preset {name!r}")
-
-    def _on_upload_json(self, event) -> None:
-        import engine
-
-        up = event.target.value
-        try:
-            scene = engine.parse_scene(up.content)
-        except engine.SceneError as exc:
-            self._set_note(self.md_preset, f"{up.name} refused: " +
-                           "; ".join(str(p) for p in exc.problems))
-            return
-        self.set_design(scene)
-        self._set_note(self.md_preset, f"loaded {up.name}")
-
-    def design_json(self) -> str:
-        import engine
-
-        return engine.parse_scene(self.scene).to_json(indent=2) + "\n"
-
-    def _on_share(self, event) -> None:
-        """Store the design and show a link that opens it in a new session (the receiver
-        gets a copy: nobody else's design changes)."""
-        share = getattr(self, "share", None)
-        design_id = share(self.design_json()) if share is not None else None
-        if design_id is None:
-            self._set_note(self.md_preset, "sharing needs the studio's data folder")
-            return
-        self.shared_design_id = design_id
-        host = getattr(self, "link_host", None) or "127.0.0.1"
-        url = f"http://{host}/?websocket=ws://{host}/design/{design_id}"
-        self.md_preset.content = f"Link to this design: [{_md_escape(url)}]({url})"
-        self.md_preset.visible = True
-
-    def _on_download_json(self, event) -> None:
-        if event.client is None:
-            return
-        name = _safe_name(self.scene.get("name", "scene")) + ".json"
-        event.client.send_file_download(name, self.design_json().encode(),
-                                        save_immediately=True)
