@@ -129,6 +129,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
                 "edited": self.has_edits(),
+                "warnings": {k: list(v) for k, v in self.warnings.items()},
                 "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
                               "bristles": len(o.items), "message": str(o)}
                              for o in self.overlaps],

@@ -12,10 +12,15 @@ import numpy as np
 
 from .. import ui_scene as us
 from .. import ui_view as uv
+from .. import ui_warnings as uw
 from ..presets import preset_names
 from .brushes import BrushSelector
 from .design_files import DesignFiles
 from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape
+
+
+#: fields that can carry a scale warning (studio.ui_warnings)
+WARNED_FIELDS = ("bristle_length", "pitch_x", "pitch_y")
 
 
 class DesignPanel(BrushSelector, DesignFiles):
@@ -65,10 +70,14 @@ class DesignPanel(BrushSelector, DesignFiles):
                 self.up_mesh.on_upload(self._on_upload_mesh)
                 self.md_body = gui.add_markdown("", visible=False)
                 self.md_overlap = gui.add_markdown("", visible=False)
+            self.warn_md: dict[str, Any] = {}
+            self.warnings: dict[str, list[str]] = {}
             for f in us.FIELDS:
                 with folders[f.folder]:
                     self.widgets[f.key] = self._add_widget(f)
                     self.error_md[f.key] = gui.add_markdown("", visible=False)
+                    if f.key in WARNED_FIELDS:
+                        self.warn_md[f.key] = gui.add_markdown("", visible=False)
 
     def _add_widget(self, f: us.UiField):
         gui = self.server.gui
@@ -246,7 +255,20 @@ class DesignPanel(BrushSelector, DesignFiles):
                     h.visible = False
                     continue
                 h.value = self._box_value(f, value)
+            self._update_warnings()
             self._update_summary()
+
+    def _update_warnings(self) -> None:
+        """Scale warnings (``studio.ui_warnings``) under the selected brush's fields, in
+        orange: accepted values that are probably a slip of the unit."""
+        self.warnings = uw.scale_warnings(self.scene, self.sel.brush)
+        for key, md in self.warn_md.items():
+            lines = self.warnings.get(key, [])
+            text = "\n\n".join(f"<span style='color:#b60'>⚠ {_md_escape(m)}</span>"
+                                for m in lines)
+            if md.content != text:
+                md.content = text
+            md.visible = bool(text) and self.widgets[key].visible
 
     def _update_summary(self) -> None:
         nb = sum(int(b["rows"]) * int(b["columns"]) for b in self.scene.get("brushes") or [])
@@ -258,7 +280,9 @@ class DesignPanel(BrushSelector, DesignFiles):
             f"{self.scene['run']['duration']:g} s to simulate.  \n{self._view_line()}" +
             ("  \n<span style='color:#d00'>⚠ the design starts overlapping: see Body</span>"
              if any(o.kind != "bristle-bristle" for o in getattr(self, "overlaps", ()))
-             else ""))
+             else "") +
+            "".join(f"  \n<span style='color:#b60'>⚠ {_md_escape(m)}</span>"
+                    for m in getattr(self, "warnings", {}).get("design", [])))
 
     def _view_line(self) -> str:
         """What the 3D view shows, in words (and how to switch)."""

@@ -98,3 +98,27 @@ def test_e2e_loading_a_preset_over_edits_asks_first(studio, page, shot):
     click(page, "Load preset")
     page.wait_for_timeout(1500)
     assert page.get_by_role("button", name="Keep editing", exact=True).count() == 0
+
+
+def test_e2e_absurd_scales_are_warned_about(studio, page, shot):
+    open_preset(studio, "demo", page)
+    # 1,000 km: accepted (the engine allows it) but warned about under the field
+    st = set_field(page, studio, "bristle length [mm]", "1000000000",
+                   lambda s: s["scene"]["brushes"][0]["bristle_length"] == 1e6)
+    st = studio.wait_state(lambda s: "bristle_length" in s["warnings"], what="a warning")
+    assert st["warnings"]["bristle_length"][0].startswith("a 1,000 km bristle")
+    wait_text(page, "a 1,000 km bristle: is that the length you meant?")
+    wait_text(page, "times the largest body")
+    shot(page, "1000-km-bristle")
+    # roots wider than the pitch
+    set_field(page, studio, "bristle length [mm]", "33",
+              lambda s: s["scene"]["brushes"][0]["bristle_length"] == 0.033)
+    st = set_field(page, studio, "pitch x [mm]", "1.5", lambda s: "pitch_x" in s["warnings"])
+    assert "bristle_length" not in st["warnings"]
+    wait_text(page, "roots 2 mm across at a 1.5 mm pitch")
+    # a sound value: the warning goes
+    set_field(page, studio, "pitch x [mm]", "3", lambda s: not s["warnings"])
+    deadline = time.monotonic() + 20
+    while "roots 2 mm across" in page.evaluate("() => document.body.innerText"):
+        assert time.monotonic() < deadline, "the warning stayed"
+        time.sleep(0.2)
