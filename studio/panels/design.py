@@ -10,6 +10,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .. import ui_guides as ug
 from .. import ui_scene as us
 from .. import ui_view as uv
 from .. import ui_warnings as uw
@@ -110,23 +111,36 @@ class DesignPanel(BrushSelector, DesignFiles):
         return h
 
     def _on_connect(self, client) -> None:
-        """Point a new client's camera at the design."""
+        """Point a client's camera at the design (a new tab, a new design, Fit view)."""
         try:
-            b = uv.design_bristles(self.scene) if uv.n_design_segments(self.scene) < 200_000 \
-                else None
-            if b is not None and len(b.positions):
-                lo, hi = b.positions.min(0), b.positions.max(0)
-                c = 0.5 * (lo + hi) * uv.VIEW_SCALE
-                size = max(float(np.max(hi - lo)) * uv.VIEW_SCALE, 20.0)
-            else:
-                c, size = np.zeros(3), 50.0
+            lo, hi = self.design_extent
+            position, look_at = ug.camera_for(lo, hi)
             client.camera.up_direction = (0.0, 0.0, 1.0)
             # viser moves the look-at point along with the position: set it last
-            client.camera.position = tuple(float(x) for x in
-                                           c + np.array([1.2, -1.6, 0.9]) * size * 1.2)
-            client.camera.look_at = tuple(float(x) for x in c)
+            client.camera.position = tuple(float(x) for x in position)
+            client.camera.look_at = tuple(float(x) for x in look_at)
         except Exception:
             pass
+
+    def _on_fit_view(self, event) -> None:
+        for client in ([event.client] if event.client is not None else self._clients()):
+            self._on_connect(client)
+
+    def _set_extent(self, bristles, bodies) -> None:
+        """The box (mm) the design spans, bristles and bodies, at least 20 mm; the guides
+        follow it."""
+        pts = [bristles.positions] if bristles is not None and len(bristles.positions) else []
+        for b in bodies:
+            if len(b.vertices):
+                pts.append(b.vertices @ uv.quat_to_matrix(b.wxyz).T + b.position)
+        if pts:
+            allp = np.concatenate(pts) * uv.VIEW_SCALE
+            lo, hi = allp.min(0), allp.max(0)
+        else:
+            lo, hi = np.full(3, -25.0), np.full(3, 25.0)
+        pad = np.maximum(20.0 - (hi - lo), 0.0) / 2
+        self.design_extent = (lo - pad, hi + pad)
+        self.guides.update(*self.design_extent)
 
     # ----------------------------------------------------------------- design editing
     def _body_names(self) -> tuple[str, ...]:
@@ -310,6 +324,7 @@ class DesignPanel(BrushSelector, DesignFiles):
             bristles = uv.design_bristles(scene)
             bodies = uv.design_bodies(self.scene)
             self._update_overlaps(None if coarse else bristles, bodies)
+            self._set_extent(bristles, bodies)
             if self.mode != "design":
                 return
             colors = uv.overlap_segment_colors(bristles, self.overlaps,
