@@ -66,7 +66,9 @@ def test_e2e_wedge_study_on_the_edited_design(studio, page, shot):
     assert st["charts"] == 1  # force against depth, interactive
     assert "force_depth.png" in st["files"]  # (still there to download)
     wait_text(page, "wedge force against depth")
-    page.locator(".js-plotly-plot").first.wait_for(timeout=30_000)
+    chart = page.locator(".js-plotly-plot").first
+    chart.wait_for(timeout=30_000)
+    chart.scroll_into_view_if_needed()
     print(f"wedge study of a 3-row design: {wall:.1f} s to its chart; time left seen: "
           f"{seen_left}")
     shot(page, "study-on-design-chart")
