@@ -33,9 +33,10 @@ def _float(text) -> Optional[float]:
 
 
 def _layout(fig, title: str, x: str, y: str, legend: bool = True) -> None:
-    fig.update_layout(title=dict(text=title, font=dict(size=13)),
+    # (the title sits above the plot area, clear of plotly's toolbar at the top right)
+    fig.update_layout(title=dict(text=title, font=dict(size=13), x=0.02, y=0.97),
                       xaxis=dict(title=x), yaxis=dict(title=y), height=HEIGHT,
-                      margin=dict(l=55, r=10, t=35, b=45), showlegend=legend,
+                      margin=dict(l=55, r=10, t=55, b=45), showlegend=legend,
                       legend=dict(orientation="h", y=-0.25), hovermode="closest")
 
 
@@ -99,7 +100,7 @@ def refinement_figure(rows: list[dict]):
     _layout(fig, "force at full depth against refinement", "nodes per bristle",
             "force [N]")
     fig.update_layout(yaxis2=dict(title="wall time [s]", overlaying="y", side="right"),
-                      margin=dict(l=55, r=55, t=35, b=45))
+                      margin=dict(l=55, r=55, t=55, b=45))
     return fig
 
 
