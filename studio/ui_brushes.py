@@ -7,6 +7,7 @@ leave validation to the caller (``studio.ui_scene.validate``), like ``ui_scene.a
 from __future__ import annotations
 
 import copy
+from typing import Optional
 
 import numpy as np
 
@@ -92,3 +93,30 @@ def remove_brush(scene: dict, index: int) -> tuple[dict, list[str]]:
         notes.append(f"{n} load{'s' if n != 1 else ''} on brush {name!r} removed with it")
         new["loads"] = kept
     return new, notes
+
+
+#: the brushes not being edited, in a design with several: greyed, so the selected one
+#: (in the view's usual colour) stands out
+OTHER_BRUSH_COLOR = (175, 185, 198)
+
+
+def selected_brush_colors(scene: dict, bonds: np.ndarray, bristle_first: np.ndarray,
+                          selected: int, colors: Optional[np.ndarray], base_color
+                          ) -> Optional[np.ndarray]:
+    """Per-segment colours that grey every brush but ``selected`` (None for a design with
+    one brush: nothing to tell apart). ``bonds``: the drawn segments' node pairs;
+    ``bristle_first``: per bristle its first node (``ui_view.design_bristle_first``);
+    ``colors``: colours already chosen (overlaps in red), kept where they differ from
+    ``base_color``."""
+    brushes = scene.get("brushes") or []
+    if len(brushes) < 2 or len(bonds) == 0:
+        return colors
+    per_brush = np.array([int(b.get("rows", 1)) * int(b.get("columns", 1)) for b in brushes])
+    bristle_brush = np.repeat(np.arange(len(brushes)), per_brush)
+    seg_bristle = np.searchsorted(bristle_first, bonds[:, 0], side="right") - 1
+    seg_brush = bristle_brush[seg_bristle]
+    base = np.asarray(base_color, np.uint8)
+    out = np.tile(base, (len(bonds), 1)) if colors is None else np.array(colors, np.uint8)
+    plain = np.all(out == base, axis=1)
+    out[plain & (seg_brush != selected)] = OTHER_BRUSH_COLOR
+    return out

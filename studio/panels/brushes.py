@@ -48,6 +48,8 @@ class BrushSelector:
             self.sel.brush = names.index(name)
             self._clear_errors()
             self._set_note(self.md_brush, "")
+            if self.mode == "design":
+                self.redraw_design()  # (the selected brush in colour, the others grey)
             self.refresh_fields()
             return True
 

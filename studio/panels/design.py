@@ -10,6 +10,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .. import ui_brushes as ub
 from .. import ui_guides as ug
 from .. import ui_scene as us
 from .. import ui_view as uv
@@ -327,8 +328,10 @@ class DesignPanel(BrushSelector, DesignFiles):
             self._set_extent(bristles, bodies)
             if self.mode != "design":
                 return
-            colors = uv.overlap_segment_colors(bristles, self.overlaps,
-                                               uv.design_bristle_first(scene))
+            first = uv.design_bristle_first(scene)
+            colors = uv.overlap_segment_colors(bristles, self.overlaps, first)
+            colors = ub.selected_brush_colors(scene, bristles.bonds, first, self.sel.brush,
+                                              colors, uv.BRISTLE_COLOR)
             self.view.set_bristle_nodes(bristles, colors)
             self.n_segments_drawn = bristles.n_segments
             self.view.set_bodies(bodies, highlight={o.body for o in self.overlaps if o.body})

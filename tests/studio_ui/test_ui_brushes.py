@@ -78,3 +78,26 @@ def test_fields_edit_the_selected_brush_only():
     new = us.set_ui_value("bristle_length", scene, sel, 40.0)
     assert math.isclose(new["brushes"][1]["bristle_length"], 0.040)
     assert new["brushes"][0] == scene["brushes"][0]
+
+
+def test_the_brushes_not_edited_are_greyed_in_the_view():
+    from studio import ui_view as uv
+
+    scene = _two_brushes()
+    bristles = uv.design_bristles(scene)
+    first = uv.design_bristle_first(scene)
+    colors = ub.selected_brush_colors(scene, bristles.bonds, first, 1, None,
+                                      uv.BRISTLE_COLOR)
+    n = len(bristles.bonds) // 2  # two equal brushes, brush 0's segments first
+    assert (colors[:n] == ub.OTHER_BRUSH_COLOR).all()
+    assert (colors[n:] == uv.BRISTLE_COLOR).all()
+    # an overlap's red is kept on a greyed brush
+    red = np.tile(np.asarray(uv.BRISTLE_COLOR, np.uint8), (len(bristles.bonds), 1))
+    red[0] = (230, 30, 30)
+    colors = ub.selected_brush_colors(scene, bristles.bonds, first, 1, red, uv.BRISTLE_COLOR)
+    assert tuple(colors[0]) == (230, 30, 30) and tuple(colors[1]) == ub.OTHER_BRUSH_COLOR
+    # one brush: nothing to grey
+    one, _ = ub.remove_brush(scene, 1)
+    b1 = uv.design_bristles(one)
+    assert ub.selected_brush_colors(one, b1.bonds, uv.design_bristle_first(one), 0, None,
+                                    uv.BRISTLE_COLOR) is None
