@@ -20,7 +20,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import _fmt_s
+from .panels.common import _fmt_s, _one_line
 from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
@@ -297,11 +297,11 @@ class StudiesTab:
         studies = self.jobs.list(limit=50, kind="study")
         rows = ["| study | status | progress | left | message |", "|---|---|---|---|---|"]
         for j in studies:
-            msg = j.error.splitlines()[0] if j.error else (j.message or "")
+            msg = _one_line(j.error or j.message)
             eta = study_eta(j)
             rows.append(f"| `{j.id}` {self.esc(j.name)} | {j.status} | "
                         f"{100 * (j.progress or 0):.0f} % | "
-                        f"{'' if eta is None else _fmt_s(eta)} | {self.esc(msg)[:120]} |")
+                        f"{'' if eta is None else _fmt_s(eta)} | {self.esc(msg)} |")
         md = "\n".join(rows) if studies else "No studies yet."
         if md != self._list_md:
             self._list_md = md
