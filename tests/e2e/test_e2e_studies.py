@@ -20,8 +20,15 @@ def _set_text(page, label: str, text: str) -> None:
 def _select(page, label: str, value: str) -> None:
     """Choose ``value`` in viser's dropdown labelled ``label`` (a combobox input)."""
     box = page.get_by_label(label, exact=True)
-    box.click(force=True)
-    page.get_by_role("option", name=value, exact=True).click(force=True)
+    for attempt in range(3):  # (a busy page can miss the click that opens the list)
+        box.click(force=True)
+        try:
+            page.get_by_role("option", name=value, exact=True).click(force=True,
+                                                                     timeout=10_000)
+            return
+        except Exception:
+            if attempt == 2:
+                raise
 
 
 def _wait_studies(studio, predicate, timeout: float, what: str) -> dict:
@@ -114,4 +121,11 @@ def test_e2e_convergence_study_shows_table_and_plot(studio, page, shot):
     assert st["shown_status"] == "completed"
     wait_text(page, "error against wall time")  # the plot's title
     wait_text(page, "tip_deflection")
+    # the table: one short line per level (nodes, dt in µs, error in %) readable in the panel
+    header = page.get_by_text("error [%]", exact=True).first
+    header.scroll_into_view_if_needed()
+    table = page.locator("table", has=page.get_by_text("error [%]", exact=True)).first
+    row = table.locator("tbody tr").first
+    line = float(row.evaluate("e => parseFloat(getComputedStyle(e).lineHeight)"))
+    assert row.bounding_box()["height"] <= 1.6 * line  # a level's row is one line tall
     shot(page, "convergence-table-plot")
