@@ -137,8 +137,6 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "mode": self.mode,
                 "scene_name": self.scene.get("name"),
                 "n_segments": int(self.view.n_instances if self.view.n_instances > 0 else 0),
-                "brush": int(self.sel.brush),
-                "body": int(self.sel.body),
                 "n_bristles": sum(int(b["rows"]) * int(b["columns"])
                                   for b in self.scene.get("brushes") or []),
                 "bodies": bodies,
@@ -153,6 +151,8 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
                 "edited": self.has_edits(),
+                "brush": int(self.sel.brush),
+                "body": int(self.sel.body),
                 "warnings": {k: list(v) for k, v in self.warnings.items()},
                 "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
                               "bristles": len(o.items), "message": str(o)}

@@ -6,7 +6,8 @@ from __future__ import annotations
 import copy
 from typing import Optional
 
-from .common import _fmt_rate, _fmt_s, _md_escape, _one_line
+from .common import _fmt_rate, _fmt_s, _md_escape
+from .common import _one_line  # (the Runs list's rows)
 from .results import ResultFrames
 
 
