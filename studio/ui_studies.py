@@ -152,7 +152,10 @@ def convergence_figure(table):
                     textposition="top center", name=table.quantity)
     fig.update_layout(title=dict(text=f"{table.quantity}: error against wall time",
                                  font=dict(size=13)),
-                      xaxis=dict(type="log", title="wall time [s]"),
+                      # (room either side: the first and last levels' labels stay whole)
+                      xaxis=dict(type="log", title="wall time [s]", range=[
+                          math.log10(min(xs)) - 0.25, math.log10(max(xs)) + 0.25]
+                          if xs else None),
                       yaxis=dict(type="log", title="|relative error|"),
                       margin=dict(l=50, r=10, t=30, b=40), height=300, showlegend=False)
     return fig

@@ -104,3 +104,9 @@ def test_png_array_reads_a_plot(tmp_path):
     assert img.dtype == np.uint8 and img.shape == (300, 400, 3)
     small = png_array(tmp_path / "p.png", max_side=200)
     assert max(small.shape[:2]) == 200
+
+
+def test_convergence_figure_leaves_room_for_the_end_labels():
+    fig = convergence_figure(_table())
+    lo, hi = fig.layout.xaxis.range  # log10 of wall time: 1 s and 4 s with a quarter decade
+    assert lo == pytest.approx(-0.25) and hi == pytest.approx(math.log10(4.0) + 0.25)
