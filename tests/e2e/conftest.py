@@ -165,11 +165,17 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
     scene = presets.load_preset_or_file(name)
     rows = str(scene.brushes[0].rows)
     for attempt in range(3):
-        box = page.get_by_label("preset", exact=True)
+        box = page.get_by_label("preset", exact=True).first
         if box.input_value() != name:
             box.click(force=True)
-            page.get_by_role("option", name=name, exact=True).click(force=True,
-                                                                     timeout=10_000)
+            try:
+                page.get_by_role("option", name=name, exact=True).click(force=True,
+                                                                         timeout=10_000)
+            except Exception:  # (a busy page missed the click that opens the list)
+                if attempt == 2:
+                    raise
+                page.keyboard.press("Escape")
+                continue
             page.wait_for_timeout(300)
         click(page, "Load preset")
         # a design with edits asks before they are discarded: confirm in its dialog
