@@ -181,7 +181,8 @@ class JobManager:
         :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
-        typed, argv = make_options(study, options, scheduler=self.scheduler)
+        typed, argv = make_options(study, options, scheduler=self.scheduler,
+                                   designs_dir=self.data_dir / "designs")
         runs = planned_runs(typed)
         if self.limits.max_study_runs is not None and runs > self.limits.max_study_runs:
             raise LimitError("max_study_runs", runs, self.limits.max_study_runs,
@@ -652,7 +653,8 @@ class JobManager:
         if resolved:
             data = json.loads(resolved)
         else:
-            data = options_to_dict(make_options(study, self.get(job_id).options)[0])
+            data = options_to_dict(make_options(study, self.get(job_id).options,
+                                                designs_dir=self.data_dir / "designs")[0])
         data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
         return data
 

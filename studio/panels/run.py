@@ -9,6 +9,7 @@ from typing import Optional
 
 from . import run_cost as rcost
 from .common import _fmt_rate, _fmt_s, _md_escape
+from .common import _one_line  # (the Runs list's rows)
 from .results import ResultFrames
 
 
@@ -32,6 +33,8 @@ class RunPanel:
             with gui.add_folder("Runs"):
                 self.md_runs = gui.add_markdown("No runs yet.")
                 self.dd_runs = gui.add_dropdown("run", ("(none)",))
+                self.dd_runs.on_update(lambda e: self._show_run_detail())
+                self.md_run_detail = gui.add_markdown("", visible=False)
                 self.bt_load_run = gui.add_button("Load run for playback")
                 self.bt_load_run.on_click(self._on_load_run)
                 self.bt_cancel_selected = gui.add_button("Cancel selected run")
@@ -115,12 +118,14 @@ class RunPanel:
         except Exception as exc:
             self.md_status.content = f"Could not start: {_md_escape(str(exc))}"
             return None
+        self.md_status.content = f"Queued job `{job_id}`."  # (first: the switch to live
+        # view below redraws, and the line must not keep naming the previous job meanwhile)
         with self.lock:
             self.my_jobs.append(job_id)
             self.active_job = job_id
+            self._select_run = job_id  # (the Runs list selects the new run)
             if self.cb_follow.value:
                 self.set_mode("live")
-        self.md_status.content = f"Queued job `{job_id}`."
         self.bt_cancel.disabled = False
         return job_id
 
@@ -171,22 +176,24 @@ class RunPanel:
         jobs = self.jobs.list(limit=50, kind="run")  # (studies: the Studies tab)
         rows = ["| run | status | progress | message |", "|---|---|---|---|"]
         for j in jobs:
-            msg = j.error or ""
+            msg = _one_line(j.error)
             if j.status in ("completed", "stopped") and j.summary:
                 msg = f"{j.summary.get('frames', '?')} frames, wall " \
                       f"{_fmt_s(j.summary.get('wall_s'))}"
             rows.append(f"| `{j.id}` {_md_escape(j.name)} | {j.status} | "
-                        f"{100 * (j.progress or 0):.0f} % | {_md_escape(msg)[:160]} |")
+                        f"{100 * (j.progress or 0):.0f} % | {_md_escape(msg)} |")
         md = "\n".join(rows) if jobs else "No runs yet."
         if md != self._runs_md:
             self._runs_md = md
             self.md_runs.content = md
             options = tuple(f"{j.id} {j.name} ({j.status})" for j in jobs) or ("(none)",)
-            current = self._selected_job()
+            current = getattr(self, "_select_run", None) or self._selected_job()
+            self._select_run = None
             self.dd_runs.options = options
             for o in options:
                 if current is not None and o.startswith(current):
                     self.dd_runs.value = o
+            self._show_run_detail()
         job = self.active_job
         if job is None:
             return
@@ -209,6 +216,22 @@ class RunPanel:
                 self.load_run(job)
             else:
                 self.md_status.content += " Load it from the Runs list."
+
+    def _show_run_detail(self) -> None:
+        """The selected run's whole message under the Runs list (the list shows one line)."""
+        job = self._selected_job()
+        text = ""
+        if job is not None and self.jobs is not None:
+            try:
+                info = self.jobs.get(job)
+            except KeyError:
+                info = None
+            full = (info.error or "") if info is not None else ""
+            if full and _one_line(full) != full.strip():
+                text = f"**`{job}`**: " + _md_escape(full.strip()).replace("\n", "  \n")
+        if self.md_run_detail.content != text:
+            self.md_run_detail.content = text
+        self.md_run_detail.visible = bool(text)
 
     def _stream_live(self) -> None:
         """Draw the latest frame of the running job (at most STREAM_HZ per second)."""
