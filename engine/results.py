@@ -357,6 +357,17 @@ class ResultFile:
             total += np.where(body["free"][:, None], own, 0.0)
         return total[0] if one else total
 
+    def body_angular_momentum(self, name: str, frame=None) -> np.ndarray:
+        """Spin angular momentum of body ``name`` about its centre of mass (inertial, world
+        components; the engine's ``L``), kg m^2/s: (3,) for frame ``i``, (n_frames, 3) for
+        ``frame=None``. Needs channel group ``bodies``."""
+        sel, one = self._frames(frame)
+        names = list(self.json_attr("body_names", []))
+        if name not in names:
+            raise KeyError(f"{self.path} has no body {name!r}; bodies: {names}")
+        L = _body_angular_momentum(self._body_states(sel, "angular momentum")[names.index(name)])
+        return L[0] if one else L
+
     def linear_momentum(self, frame=None) -> np.ndarray:
         """Total linear momentum of free nodes and free bodies, kg m/s: (3,) for frame ``i``,
         (n_frames, 3) for ``frame=None``. Needs ``node_velocities`` / ``bodies`` as
@@ -426,10 +437,19 @@ class ResultFile:
                         "hinge_inertia"):
                 body[key] = np.asarray(self.static(f"bodies/{name}/{key}"), float)
             body["gravity"] = np.asarray(self.static("gravity"), float)
+            body["frame_rate"] = self._frame_rate()
             body["free"] = code == motion_names.index("free")
             body["hinge"] = code == motion_names.index("hinge")
             out.append(body)
         return out
+
+
+    def _frame_rate(self) -> np.ndarray:
+        """The world frame's rotation rate relative to inertial space, rad/s: n z_hat in the
+        Hill frame of a scene with an orbit (docs/mission.md), zero otherwise."""
+        orbit = self.scene.environment.orbit
+        n = orbit.n if orbit is not None else 0.0
+        return np.array([0.0, 0.0, n])
 
 
 def _rotation_matrices(q: np.ndarray) -> np.ndarray:
@@ -443,8 +463,11 @@ def _rotation_matrices(q: np.ndarray) -> np.ndarray:
 
 
 def _body_angular_momentum(body: dict) -> np.ndarray:
-    """World-frame spin angular momentum R diag(I_p) R^T w of a body, (F, 3): the engine
-    integrates this L and derives w from it, so this recovers it to round-off."""
+    """World-frame spin angular momentum R diag(I_p) R^T (w + Omega) of a body, (F, 3): the
+    engine integrates this L and derives w from it, so this recovers it to round-off. With
+    an orbit the recorded w is relative to the turning Hill frame and L is inertial
+    (``Omega = n z_hat``, docs/mission.md); without one Omega = 0."""
     R = _rotation_matrices(body["orientation"])
-    in_body = np.einsum("fji,fj->fi", R, body["angular_velocity"])
+    w_inertial = body["angular_velocity"] + body.get("frame_rate", np.zeros(3))
+    in_body = np.einsum("fji,fj->fi", R, w_inertial)
     return np.einsum("fij,fj->fi", R, body["principal_inertia"] * in_body)
