@@ -31,14 +31,18 @@ PHI_SIL_AL = 30 * DEG         # silicone-aluminium: between the seed's silicone-
 # The chaser: a 1 m cube of 300 kg (uniform: I = m a^2 / 6 = 50 kg m^2), 10 Hz control,
 # 10 N per axis of thrust and 2 N m per axis of torque (assumptions)
 CHASER = {"size": 1.0, "mass": 300.0, "sample_interval": 0.1, "max_force": 10.0,
-          "max_torque": 2.0, "kp": 150.0, "ki": 10.0, "kpa": 50.0}
+          "max_torque": 2.0, "kp": 600.0, "ki": 100.0, "kpa": 50.0}
+# silicone is lossy: 10 % of critical damping in the bristles and a coefficient of
+# restitution 0.5 against the target (assumptions; elastic, the tips bounce off the face)
+SILICONE_DAMPING = 0.1
+RESTITUTION = 0.5
 
 
 def _chaser_gains():
     c = CHASER
     inertia = c["mass"] * c["size"] ** 2 / 6.0
     # critically damped loops (kd = 2 sqrt(kp m)); the integral term is Routh-stable as
-    # kd kp > ki m (63 600 > 3 000)
+    # kd kp > ki m (509 000 > 30 000); w_n h = 0.14 rad at 10 Hz sampling
     return ({"proportional": c["kp"], "derivative": 2 * math.sqrt(c["kp"] * c["mass"]),
              "integral": c["ki"]},
             {"proportional": c["kpa"], "derivative": 2 * math.sqrt(c["kpa"] * inertia)},
@@ -87,6 +91,15 @@ def _scene(name, desc, target, brush, axis, surface, controller_extra, materials
                          "value": stop_fraction * omega0, "hold": 1.0, "min_time": 1.0}}}
 
 
+def _materials(silicone: dict, phi_sil_sil: float):
+    materials = {"silicone": dict(silicone, bond_damping=SILICONE_DAMPING),
+                 "aluminium": ALUMINIUM}
+    pairs = [{"materials": ["silicone", "silicone"], "friction_angle": phi_sil_sil},
+             {"materials": ["silicone", "aluminium"], "friction_angle": PHI_SIL_AL,
+              "restitution": RESTITUTION}]
+    return materials, pairs
+
+
 def _common_text(brush, n_nodes, duration, stop_fraction):
     a = CHASER["size"]
     pos_gains, att_gains, inertia = _chaser_gains()
@@ -96,9 +109,11 @@ def _common_text(brush, n_nodes, duration, stop_fraction):
         f"keeps the seed's strains for the same relative deflection): bristles "
         f"{brush['bristle_length'] * 1e3:g} mm, conical {2 * brush['root_radius'] * 1e3:g} "
         f"-> {2 * brush['tip_radius'] * 1e3:g} mm diameter, {brush['pitch'][0] * 1e3:g} mm "
-        f"pitch, no material damping. Friction silicone-aluminium {PHI_SIL_AL / DEG:g} deg "
-        f"(assumed, between the seed's silicone-PLA 24 deg and silicone-foam 36 deg), "
-        f"silicone-silicone 44 deg (seed 4.2); contacts elastic. Chaser (chaser): a "
+        f"pitch, bond damping {SILICONE_DAMPING:g} of critical (assumed: silicone is "
+        f"lossy). Friction silicone-aluminium {PHI_SIL_AL / DEG:g} deg (assumed, between "
+        f"the seed's silicone-PLA 24 deg and silicone-foam 36 deg), silicone-silicone 44 deg "
+        f"(seed 4.2); coefficient of restitution silicone-aluminium {RESTITUTION:g} "
+        f"(assumed), silicone-silicone 1. Chaser (chaser): a "
         f"{a:g} m aluminium box of {CHASER['mass']:g} kg (uniform inertia {inertia:g} kg "
         f"m^2), collide false (its hull has no contact model yet, issue 15 item 3; the "
         f"held offset keeps it clear of the target), carrying the brush on its face toward "
@@ -126,12 +141,14 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
     omega0 = 10 * DEG
     i_axis = mass * radius ** 2                              # thin-walled shell
     i_trans = mass * (radius ** 2 / 2 + length ** 2 / 12)
-    n_nodes, duration, stop_fraction = 5, 15.0, 0.05
-    # chaser radially above (+x), bristles along -x; the 17-bristle rows run along the
-    # surface's motion (y), the 5-bristle rows along the stage's axis (z)
+    n_nodes, duration, stop_fraction = 5, 20.0, 0.05
+    # chaser radially above (+x), bristles along -x; the 17-bristle rows along the stage's
+    # axis (z, base local x), 5 of them around it (y): the side is straight along z, so
+    # every bristle reaches it (across it, 5 rows span 60 mm: 0.7 mm of curvature)
     base = {"position": [-CHASER["size"] / 2, 0.0, 0.0],
             "orientation": quat_axis_angle([0, 1, 0], -math.pi / 2)}
     brush = _brush(seed_brush, base, n_nodes)
+    brush.update(rows=5, columns=17)
     target = {"name": "target", "material": "aluminium",
               "shape": {"type": "cylinder", "radius": radius, "height": length,
                         "sections": 64},
@@ -147,11 +164,10 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
         f"{i_axis:.1f} kg m^2 about its axis (m r^2) and {i_trans:.1f} kg m^2 across it "
         f"(m (r^2/2 + l^2/12): the axis is the major axis, so the spin is stable), axis "
         f"along the orbit normal z, spinning at {omega0 / DEG:g} deg/s about it (all "
-        f"assumptions); the brush rubs its side, the chaser radially above it (+x). "
+        f"assumptions); the brush rubs its side, the chaser radially above it (+x), the "
+        f"brush's 17-bristle rows along the stage's axis (scene rows 5, columns 17). "
         + _common_text(brush, n_nodes, duration, stop_fraction))
-    materials = {"silicone": silicone, "aluminium": ALUMINIUM}
-    pairs = [{"materials": ["silicone", "silicone"], "friction_angle": phi_sil_sil},
-             {"materials": ["silicone", "aluminium"], "friction_angle": PHI_SIL_AL}]
+    materials, pairs = _materials(silicone, phi_sil_sil)
     return _scene("detumble_upper_stage", desc, target, brush, (1.0, 0.0, 0.0), radius, {},
                   materials, pairs, duration, stop_fraction, omega0)
 
@@ -172,20 +188,22 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     iyy = i_bus + panel_mass * (panel[0] ** 2 + panel[2] ** 2) / 12
     izz = (i_bus + bus_mass * dy_bus ** 2 + panel_mass * (panel[0] ** 2 + panel[1] ** 2) / 12
            + panel_mass * dy_panel ** 2)
-    omega0 = 3 * DEG
-    lever = 0.25                                # brush centre from the spin axis
+    omega0 = 2 * DEG
     n_nodes, duration, stop_fraction = 5, 20.0, 0.05
-    # chaser above the +z face, centred on the spin axis; the brush on its -z face at
-    # x = lever, bristles along -z (turned 180 deg about x: the 17-bristle rows along the
-    # face's motion, y; the 5-bristle rows radial, x)
-    base = {"position": [lever, 0.0, -CHASER["size"] / 2],
+    # chaser above the +z face on the spin axis (through the centre of mass), the brush
+    # centred on its -z face, bristles along -z (turned 180 deg about x). Centred, the
+    # brush's push has no moment: off the axis it would tilt the target (a world-fixed
+    # torque across the spin axis: seen, |w| grew)
+    base = {"position": [0.0, 0.0, -CHASER["size"] / 2],
             "orientation": quat_axis_angle([1, 0, 0], math.pi)}
     brush = _brush(seed_brush, base, n_nodes)
     target = {"name": "target", "material": "aluminium",
               "shape": {"type": "box", "size": [bus, bus, bus]},
               "mass_properties": {"mass": mass, "center_of_mass": [0.0, com_y, 0.0],
                                   "inertia": [[ixx, 0, 0], [0, iyy, 0], [0, 0, izz]]},
-              "motion": {"type": "free"}, "angular_velocity": [0.0, 0.0, omega0]}
+              "motion": {"type": "free"}, "angular_velocity": [0.0, 0.0, omega0],
+              # the bus centre placed so that the centre of mass is at the origin
+              "pose": {"position": [0.0, -com_y, 0.0]}}
     desc = (
         "Seed chapter 5 ('Test brush in mission simulations', no figure: the thesis "
         "recommends this simulation) and issue 15: a chaser detumbles a box-shaped "
@@ -193,17 +211,16 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"bus of {bus_mass:g} kg (uniform) with one {panel[1]:g} x {panel[0]:g} m panel of "
         f"{panel_mass:g} kg ({panel[2] * 1e3:g} mm thick) out along +y from the bus's +y "
         f"face; {mass:g} kg, centre of mass {com_y * 1e3:.1f} mm from the bus centre toward "
-        f"the panel, principal inertia {ixx:.1f}, {iyy:.1f}, {izz:.1f} kg m^2 (x, y, z; "
+        f"the panel (placed at the origin), principal inertia {ixx:.1f}, {iyy:.1f}, {izz:.1f} kg m^2 (x, y, z; "
         f"z, the orbit normal, is the major axis, so the spin is stable). The contact shape "
         f"is the bus alone: the panel's mass and inertia are in, its geometry is not (the "
         f"brush works on the bus's +z face and never reaches the panel; an assumption of "
         f"this preset). Spinning at {omega0 / DEG:g} deg/s about z (assumed). The chaser "
-        f"holds above the +z face on the spin axis; the brush is {lever * 1e3:g} mm off "
-        f"the axis and rubs the face like a disc brake. "
+        f"holds above the +z face on the spin axis through the centre of mass; the brush, "
+        f"centred on that axis (so its push does not tilt the target), rubs the face like a "
+        f"disc brake. "
         + _common_text(brush, n_nodes, duration, stop_fraction))
-    materials = {"silicone": silicone, "aluminium": ALUMINIUM}
-    pairs = [{"materials": ["silicone", "silicone"], "friction_angle": phi_sil_sil},
-             {"materials": ["silicone", "aluminium"], "friction_angle": PHI_SIL_AL}]
+    materials, pairs = _materials(silicone, phi_sil_sil)
     # the chaser's centre: above the target's centre of mass (the body origin) on +z
     return _scene("detumble_box_satellite", desc, target, brush, (0.0, 0.0, 1.0), bus / 2,
                   {}, materials, pairs, duration, stop_fraction, omega0)

@@ -101,7 +101,7 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         before = _target_extent(target, axis)
         target["shape"] = _scale_shape(target["shape"], size)
         mp = target["mass_properties"]
-        if "density" not in mp:
+        if mp.get("density") is None:  # mass and inertia given: scale them
             mp["mass"] *= size ** 3
             mp["inertia"] = [[v * size ** 5 for v in row] for row in mp["inertia"]]
             if mp.get("center_of_mass") is not None:

@@ -47,6 +47,20 @@ def bending_stress(moment: np.ndarray, radius: np.ndarray) -> np.ndarray:
     return 4.0 * np.asarray(moment, float) / (math.pi * np.asarray(radius, float) ** 3)
 
 
+def peak_bending_stress(res) -> np.ndarray:
+    """Per frame, the largest bending stress over the bonds, Pa, from an open result file
+    (channel groups ``bending`` and ``nodes``: the moments and the node radii); NaN per frame
+    without them. A bond's radius is the mean of its two nodes' (its midpoint's, where the
+    moment is taken)."""
+    if "bonds/bending_moment" not in res.channels() or "nodes/radius" not in res.statics():
+        return np.full(res.n_frames, np.nan)
+    bonds = np.asarray(res.static("bonds/nodes"))
+    radius = np.asarray(res.static("nodes/radius"))
+    r_bond = 0.5 * (radius[bonds[:, 0]] + radius[bonds[:, 1]])
+    moment = np.asarray(res.series("bonds/bending_moment"), float)
+    return bending_stress(moment, r_bond[None, :]).max(axis=1)
+
+
 def read_detumble(h5_path: Path) -> dict:
     """The series of a detumble run (time, target w and L, loads, controller channels,
     bending stress) as arrays, and the scene facts they need."""
@@ -69,14 +83,7 @@ def read_detumble(h5_path: Path) -> dict:
                     "applied_force"):
             d[key] = np.asarray(res.series(f"{ctl}/{key}"))
         d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
-        if "bonds/bending_moment" in res.channels():
-            bonds = np.asarray(res.static("bonds/nodes"))
-            radius = np.asarray(res.static("nodes/radius"))
-            r_bond = 0.5 * (radius[bonds[:, 0]] + radius[bonds[:, 1]])
-            moment = np.asarray(res.series("bonds/bending_moment"), float)
-            d["peak_stress"] = bending_stress(moment, r_bond[None, :]).max(axis=1)
-        else:
-            d["peak_stress"] = np.full(len(t), np.nan)
+        d["peak_stress"] = peak_bending_stress(res)
         d["material"] = brush.material
         orbit = scene.environment.orbit
         d["mean_motion"] = orbit.n if orbit is not None else 0.0
