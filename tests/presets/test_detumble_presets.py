@@ -56,7 +56,7 @@ def test_held_offset_puts_the_tips_the_stated_depth_into_the_surface(name, surfa
     k = system.body_names.index("chaser")
     chaser_pos = system.bodies.pos[k]
     brush = scene.brushes[0]
-    tips = system.nodes.x[system.bristle_first_node + brush.n_nodes - 1]
+    tips = system.nodes.x[np.asarray(system.bristle_first_node)[1:] - 1]  # last nodes
     reach = float(np.mean((tips - chaser_pos) @ axis)) - brush.tip_radius  # tip ends
     target_pos = system.bodies.pos[system.body_names.index("target")]
     held_tip = (target_pos + offset) @ axis + reach     # along the approach axis
