@@ -333,6 +333,8 @@ class ResultFile:
             gravity -= np.where(moving, body["mass"] * ((body["position"]
                                                          - body["initial_position"])
                                                         @ body["gravity"]), 0.0)
+        gravity = gravity + self._orbit_energy(
+            nodes, self._body_states(sel, "the gravity energy"), len(gravity))
         out["gravity"] = float(gravity[0]) if one else gravity
         out["total"] = out["kinetic"] + out["bond"] + out["contact"] + out["gravity"]
         return {key: out[key] for key in ENERGY_KEYS}
@@ -443,6 +445,33 @@ class ResultFile:
             out.append(body)
         return out
 
+
+    def _orbit_energy(self, nodes, bodies, n_frames: int) -> np.ndarray | float:
+        """The orbital part of the Jacobi integral (``engine.orbit.orbit_energy_terms``,
+        the same function as the live ``engine.energies``): 0 without an orbit."""
+        orbit = self.scene.environment.orbit
+        if orbit is None or orbit.n == 0.0:
+            return 0.0
+        from .orbit import orbit_energy_terms
+        if nodes is not None:
+            node_mass, node_x = nodes["mass"], nodes["position"]
+        else:
+            node_mass, node_x = np.zeros(0), np.zeros((n_frames, 0, 3))
+        if not bodies:
+            F = n_frames
+            return orbit_energy_terms(orbit.n, orbit.gravity_gradient, node_mass, node_x,
+                                      np.zeros((F, 0)), np.zeros(0), np.zeros((F, 0, 3)),
+                                      np.zeros((F, 0, 3, 3)), np.zeros((0, 3)),
+                                      np.zeros((F, 0, 3)))
+        stack = lambda key: np.stack([b[key] for b in bodies], axis=1)  # noqa: E731
+        motion = np.stack([np.where(b["free"], 3, np.where(b["hinge"], 2, 0))
+                           for b in bodies], axis=1)
+        R = np.stack([_rotation_matrices(b["orientation"]) for b in bodies], axis=1)
+        L = np.stack([_body_angular_momentum(b) for b in bodies], axis=1)
+        return orbit_energy_terms(orbit.n, orbit.gravity_gradient, node_mass, node_x, motion,
+                                  np.array([float(b["mass"]) for b in bodies]),
+                                  stack("position"), R,
+                                  np.stack([b["principal_inertia"] for b in bodies]), L)
 
     def _frame_rate(self) -> np.ndarray:
         """The world frame's rotation rate relative to inertial space, rad/s: n z_hat in the
