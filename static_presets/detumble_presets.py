@@ -58,12 +58,13 @@ def _brush(silicone_brush: dict, base: dict, n_nodes: int) -> dict:
     return b
 
 
-def _scene(name, desc, target, brush, axis, surface, controller_extra, materials, pairs,
+def _scene(name, desc, target, brushes, axis, surface, controller_extra, materials, pairs,
            duration, stop_fraction, omega0):
     """The shared layout: ``axis`` the unit approach direction (target -> chaser),
     ``surface`` the target's surface distance from its centre along it."""
     pos_gains, att_gains, inertia = _chaser_gains()
     a = CHASER["size"]
+    brush = brushes[0]                                        # all of one design
     reach = brush["bristle_length"] + brush["tip_radius"]     # base -> tip end
     hold = surface - INTERFERENCE + reach + a / 2
     start = surface + START_GAP + reach + a / 2
@@ -81,7 +82,7 @@ def _scene(name, desc, target, brush, axis, surface, controller_extra, materials
               "collide": False}
     return {
         "schema_version": 1, "name": name, "description": desc,
-        "materials": materials, "contact_pairs": pairs, "brushes": [brush],
+        "materials": materials, "contact_pairs": pairs, "brushes": brushes,
         "bodies": [target, chaser], "controllers": [ctl],
         "environment": {"orbit": {"altitude": ORBIT_ALTITUDE, "gravity_gradient": True}},
         "run": {"duration": duration, "record_interval": 0.02,
@@ -104,7 +105,7 @@ def _common_text(brush, n_nodes, duration, stop_fraction):
     a = CHASER["size"]
     pos_gains, att_gains, inertia = _chaser_gains()
     return (
-        f"Brush (brush): the seed's 17 x 5 silicone brush (seed 4.2: E 2.7 MPa, nu 0.48, "
+        f"Brushes: the seed's 17 x 5 silicone brush (seed 4.2: E 2.7 MPa, nu 0.48, "
         f"1700 kg/m^3) scaled up {BRUSH_SCALE:g} times, an assumption (geometric scaling "
         f"keeps the seed's strains for the same relative deflection): bristles "
         f"{brush['bristle_length'] * 1e3:g} mm, conical {2 * brush['root_radius'] * 1e3:g} "
@@ -168,7 +169,7 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
         f"brush's 17-bristle rows along the stage's axis (scene rows 5, columns 17). "
         + _common_text(brush, n_nodes, duration, stop_fraction))
     materials, pairs = _materials(silicone, phi_sil_sil)
-    return _scene("detumble_upper_stage", desc, target, brush, (1.0, 0.0, 0.0), radius, {},
+    return _scene("detumble_upper_stage", desc, target, [brush], (1.0, 0.0, 0.0), radius, {},
                   materials, pairs, duration, stop_fraction, omega0)
 
 
@@ -189,14 +190,22 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     izz = (i_bus + bus_mass * dy_bus ** 2 + panel_mass * (panel[0] ** 2 + panel[1] ** 2) / 12
            + panel_mass * dy_panel ** 2)
     omega0 = 2 * DEG
+    lever = 0.25                                # each brush's centre from the spin axis
     n_nodes, duration, stop_fraction = 5, 20.0, 0.05
-    # chaser above the +z face on the spin axis (through the centre of mass), the brush
-    # centred on its -z face, bristles along -z (turned 180 deg about x). Centred, the
-    # brush's push has no moment: off the axis it would tilt the target (a world-fixed
-    # torque across the spin axis: seen, |w| grew)
-    base = {"position": [0.0, 0.0, -CHASER["size"] / 2],
-            "orientation": quat_axis_angle([1, 0, 0], math.pi)}
-    brush = _brush(seed_brush, base, n_nodes)
+    # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
+    # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
+    # each: their pushes' moments across the spin axis cancel (one brush off the axis
+    # tilted the target: seen, |w| grew), their friction torques about it add (one brush
+    # on the axis had almost no lever: seen, |w| stayed). Within 0.29 m of the axis they
+    # stay on the face (its inscribed circle about the centre of mass: 0.36 m)
+    brushes = []
+    for side, sign in (("left", -1.0), ("right", 1.0)):
+        base = {"position": [sign * lever, 0.0, -CHASER["size"] / 2],
+                "orientation": quat_axis_angle([1, 0, 0], math.pi)}
+        b = _brush(seed_brush, base, n_nodes)
+        b.update(name=f"brush_{side}", rows=9, columns=5)
+        brushes.append(b)
+    brush = brushes[0]
     target = {"name": "target", "material": "aluminium",
               "shape": {"type": "box", "size": [bus, bus, bus]},
               "mass_properties": {"mass": mass, "center_of_mass": [0.0, com_y, 0.0],
@@ -216,13 +225,14 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"is the bus alone: the panel's mass and inertia are in, its geometry is not (the "
         f"brush works on the bus's +z face and never reaches the panel; an assumption of "
         f"this preset). Spinning at {omega0 / DEG:g} deg/s about z (assumed). The chaser "
-        f"holds above the +z face on the spin axis through the centre of mass; the brush, "
-        f"centred on that axis (so its push does not tilt the target), rubs the face like a "
-        f"disc brake. "
+        f"holds above the +z face on the spin axis through the centre of mass; two brushes "
+        f"(brush_left, brush_right: 9 rows of 5 bristles each, the rows along y), centred "
+        f"{lever * 1e3:g} mm either side of the axis along x (so their pushes do not tilt "
+        f"the target), rub the face like a disc brake. "
         + _common_text(brush, n_nodes, duration, stop_fraction))
     materials, pairs = _materials(silicone, phi_sil_sil)
     # the chaser's centre: above the target's centre of mass (the body origin) on +z
-    return _scene("detumble_box_satellite", desc, target, brush, (0.0, 0.0, 1.0), bus / 2,
+    return _scene("detumble_box_satellite", desc, target, brushes, (0.0, 0.0, 1.0), bus / 2,
                   {}, materials, pairs, duration, stop_fraction, omega0)
 
 

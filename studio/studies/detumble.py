@@ -86,7 +86,8 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
     scene = json.loads(presets.load_preset_or_file(preset).to_json())
     bodies = {b["name"]: b for b in scene["bodies"]}
     ctl = next((c for c in scene["controllers"] if c["name"] == CONTROLLER), None)
-    brush = next((b for b in scene["brushes"] if b.get("mount") == CHASER), None)
+    mounted = [b for b in scene["brushes"] if b.get("mount") == CHASER]
+    brush = mounted[0] if mounted else None   # the presets' brushes share one design
     if TARGET not in bodies or CHASER not in bodies or ctl is None or brush is None:
         from engine import SceneError
         raise SceneError.single("(scene)", preset,
@@ -115,18 +116,23 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
             stop["value"] *= spin_deg * DEG / float(np.linalg.norm(w_preset))
     if length_mm is not None:
         shift += length_mm * 1e-3 - brush["bristle_length"]
-        brush["bristle_length"] = length_mm * 1e-3
     if diameter_mm is not None:
         ratio = brush["tip_radius"] / brush["root_radius"]
         shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]
-        brush["root_radius"] = 0.5 * diameter_mm * 1e-3
-        brush["tip_radius"] = brush["root_radius"] * ratio
+    for b in mounted:
+        if length_mm is not None:
+            b["bristle_length"] = length_mm * 1e-3
+        if diameter_mm is not None:
+            ratio = b["tip_radius"] / b["root_radius"]
+            b["root_radius"] = 0.5 * diameter_mm * 1e-3
+            b["tip_radius"] = b["root_radius"] * ratio
     ctl["position"] = list(offset + shift * axis)
     chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
                                       + shift * axis)
     for key, value in (("n_nodes", n_nodes), ("rows", rows), ("columns", columns)):
         if value is not None:
-            brush[key] = int(value)
+            for b in mounted:
+                b[key] = int(value)
     if duration is not None:
         scene["run"]["duration"] = float(duration)
     if record_interval is not None:

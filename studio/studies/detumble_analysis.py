@@ -9,8 +9,8 @@ Every quantity comes from the recorded channels (docs/results.md) and the run's 
   initial value to the end of the run (``None`` if it does not);
 * peak loads: on the target its recorded ``contact_force`` / ``contact_torque`` (about its
   centre of mass; with the gravity-gradient torque, which is orders smaller); on the chaser
-  the brush's load, ``-root_force`` and ``-root_torque`` of the brush (the force the roots
-  put on the chaser, its moment about the brush base);
+  the brushes' load, ``-root_force`` summed over the brushes mounted on it and the largest
+  ``-root_torque`` (each about its own brush base);
 * the chaser's Delta-v (integral of |F|/m of its thrusters), angular impulse and attitude
   error, from the controller's channels;
 * the peak bending stress of the bristles, ``sigma = M r / I = 4 M / (pi r^3)`` (a solid
@@ -75,9 +75,16 @@ def read_detumble(h5_path: Path) -> dict:
         d["target_force"] = np.asarray(res.series(f"{body}/contact_force"))
         d["target_torque"] = np.asarray(res.series(f"{body}/contact_torque"))
         d["angular_momentum"] = np.asarray(res.body_angular_momentum(TARGET))
-        brush = next(b for b in scene.brushes if b.mount == CHASER)
-        d["chaser_force"] = -np.asarray(res.series(f"brushes/{brush.name}/root_force"))
-        d["chaser_torque"] = -np.asarray(res.series(f"brushes/{brush.name}/root_torque"))
+        mounted = [b for b in scene.brushes if b.mount == CHASER]
+        brush = mounted[0]
+        # the brushes' load on the chaser: their forces add; their torques are each about
+        # its own base, so the largest per frame is kept
+        d["chaser_force"] = -sum(np.asarray(res.series(f"brushes/{b.name}/root_force"))
+                                 for b in mounted)
+        torques = [np.asarray(res.series(f"brushes/{b.name}/root_torque")) for b in mounted]
+        d["chaser_torque"] = np.stack(torques)[
+            np.argmax(np.stack([np.linalg.norm(t, axis=1) for t in torques]), axis=0),
+            np.arange(len(t))]
         ctl = f"controllers/{CONTROLLER}"
         for key in ("delta_v", "angular_impulse_total", "attitude_error", "position_error",
                     "applied_force"):

@@ -25,8 +25,7 @@ def test_preset_has_the_detumble_layout_and_describes_itself(name):
     target, chaser = bodies["target"], bodies["chaser"]
     assert target.motion.type == "free" and chaser.motion.type == "free"
     assert not chaser.collide                       # no hull contact model yet (item 3)
-    (brush,) = scene.brushes
-    assert brush.mount == "chaser"
+    assert scene.brushes and all(b.mount == "chaser" for b in scene.brushes)
     (ctl,) = scene.controllers
     assert (ctl.name, ctl.body, ctl.reference) == ("chaser_control", "chaser", "target")
     assert scene.environment.orbit is not None and scene.environment.orbit.gravity_gradient
