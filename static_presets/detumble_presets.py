@@ -59,13 +59,14 @@ def _brush(silicone_brush: dict, base: dict, n_nodes: int) -> dict:
 
 
 def _scene(name, desc, target, brushes, axis, surface, controller_extra, materials, pairs,
-           duration, stop_fraction, omega0):
+           duration, stop_fraction, omega0, tilt=0.0):
     """The shared layout: ``axis`` the unit approach direction (target -> chaser),
     ``surface`` the target's surface distance from its centre along it."""
     pos_gains, att_gains, inertia = _chaser_gains()
     a = CHASER["size"]
     brush = brushes[0]                                        # all of one design
-    reach = brush["bristle_length"] + brush["tip_radius"]     # base -> tip end
+    # base -> tip end along the approach axis (bristles leaning by `tilt` from it)
+    reach = brush["bristle_length"] * math.cos(tilt) + brush["tip_radius"]
     hold = surface - INTERFERENCE + reach + a / 2
     start = surface + START_GAP + reach + a / 2
     ctl = {"name": "chaser_control", "body": "chaser", "reference": "target",
@@ -191,6 +192,7 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
            + panel_mass * dy_panel ** 2)
     omega0 = 2 * DEG
     lever = 0.25                                # each brush's centre from the spin axis
+    tip_sd = 1e-3                               # m: scatter of the tips (assumed)
     n_nodes, duration, stop_fraction = 5, 20.0, 0.05
     # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
     # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
@@ -198,12 +200,16 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     # tilted the target: seen, |w| grew), their friction torques about it add (one brush
     # on the axis had almost no lever: seen, |w| stayed). Within 0.29 m of the axis they
     # stay on the face (its inscribed circle about the centre of mass: 0.36 m)
+    # The tips scatter by tip_sd (Gaussian, in the base plane): pressed end-on on a flat
+    # face that hardly moves, perfectly straight bristles stay straight columns (stiff:
+    # the chaser chattered on them, seen) instead of buckling, bending and sliding
     brushes = []
     for side, sign in (("left", -1.0), ("right", 1.0)):
         base = {"position": [sign * lever, 0.0, -CHASER["size"] / 2],
                 "orientation": quat_axis_angle([1, 0, 0], math.pi)}
         b = _brush(seed_brush, base, n_nodes)
-        b.update(name=f"brush_{side}", rows=9, columns=5)
+        b.update(name=f"brush_{side}", rows=9, columns=5, tip_variance=tip_sd ** 2,
+                 seed=1 if sign < 0 else 2)
         brushes.append(b)
     brush = brushes[0]
     target = {"name": "target", "material": "aluminium",
@@ -228,7 +234,9 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"holds above the +z face on the spin axis through the centre of mass; two brushes "
         f"(brush_left, brush_right: 9 rows of 5 bristles each, the rows along y), centred "
         f"{lever * 1e3:g} mm either side of the axis along x (so their pushes do not tilt "
-        f"the target), rub the face like a disc brake. "
+        f"the target), tips scattered by {tip_sd * 1e3:g} mm (standard deviation in the "
+        f"base plane, seeds 1 and 2: assumed manufacturing scatter; perfectly straight "
+        f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. "
         + _common_text(brush, n_nodes, duration, stop_fraction))
     materials, pairs = _materials(silicone, phi_sil_sil)
     # the chaser's centre: above the target's centre of mass (the body origin) on +z

@@ -114,11 +114,16 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         stop = scene["run"].get("stop")
         if stop and stop.get("body") == TARGET:  # the preset's stop is relative to its spin
             stop["value"] *= spin_deg * DEG / float(np.linalg.norm(w_preset))
+    # a longer bristle reaches farther along the approach axis by its projection on it
+    from engine.rotations import quat_to_matrix
+    along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
+        @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
+    cos_tilt = abs(float(along @ axis))
     if length_mm is not None:
-        shift += length_mm * 1e-3 - brush["bristle_length"]
+        shift += (length_mm * 1e-3 - brush["bristle_length"]) * cos_tilt
     if diameter_mm is not None:
         ratio = brush["tip_radius"] / brush["root_radius"]
-        shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]
+        shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]  # a sphere's
     for b in mounted:
         if length_mm is not None:
             b["bristle_length"] = length_mm * 1e-3

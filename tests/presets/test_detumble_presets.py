@@ -59,7 +59,9 @@ def test_held_offset_puts_the_tips_the_stated_depth_into_the_surface(name, surfa
     reach = float(np.mean((tips - chaser_pos) @ axis)) - brush.tip_radius  # tip ends
     target_pos = system.bodies.pos[system.body_names.index("target")]
     held_tip = (target_pos + offset) @ axis + reach     # along the approach axis
-    assert held_tip == pytest.approx(target_pos @ axis + surface - INTERFERENCE, abs=1e-9)
+    # 10 um: the box satellite's tips scatter sideways by 1 mm, which lowers a 165 mm
+    # bristle's tip by d^2 / 2L ~ 3 um; a wrong reach or surface is off by millimetres
+    assert held_tip == pytest.approx(target_pos @ axis + surface - INTERFERENCE, abs=1e-5)
     # and at the start they are outside the surface
     start_tip = float(np.min((tips - target_pos) @ axis)) - brush.tip_radius
     assert start_tip > surface
