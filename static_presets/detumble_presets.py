@@ -193,7 +193,7 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     omega0 = 2 * DEG
     lever = 0.25                                # each brush's centre from the spin axis
     tip_sd = 1e-3                               # m: scatter of the tips (assumed)
-    n_nodes, duration, stop_fraction = 5, 20.0, 0.05
+    n_nodes, duration, stop_fraction = 5, 30.0, 0.05
     # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
     # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
     # each: their pushes' moments across the spin axis cancel (one brush off the axis
