@@ -573,13 +573,25 @@ def gripper():
     }
 
 
+def _detumble_presets() -> list[dict]:
+    """The mission presets of issue 15 (``detumble_presets.py``, beside this file)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("detumble_presets",
+                                                  HERE / "detumble_presets.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.all_detumble(SILICONE, PHI_SIL_SIL, seed_brush(), quat_axis_angle)
+
+
 def all_presets() -> dict[str, dict]:
     scenes = [rod_weight_release(), rod_weight_static(), rod_tip_impulse(),
               rod_root_impulse(),
               *(wedge_scene(a) for a in (30, 45, 60, 75)),
               *(spin_cube(s) for s in (20, 40, 60)),
               momentum_two_brushes(), momentum_spheres_cube(),
-              impact_scene(fur=True), impact_scene(fur=False), gripper()]
+              impact_scene(fur=True), impact_scene(fur=False), gripper(),
+              *_detumble_presets()]
     return {s["name"]: s for s in scenes}
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from ..jsonable import jsonable_null as _json
-from . import convergence, refinement, rod, sensitivity, spin, wedge
+from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,7 @@ REGISTRY: dict[str, Study] = {
     "montecarlo": Study("montecarlo", sensitivity.MonteCarloOptions,
                         sensitivity.run_montecarlo, _montecarlo_parser),
     "rod": Study("rod", rod.Options, rod.run, rod.add_parser),
+    "detumble": Study("detumble", detumble.Options, detumble.run, detumble.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),
 }
