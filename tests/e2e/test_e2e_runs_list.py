@@ -47,14 +47,15 @@ def test_e2e_long_failure_stays_one_line_and_new_runs_are_selected(studio, page,
     click(page, "Run", role="tab")
     first = _start(studio, page)
     deadline = time.monotonic() + 400  # (a cold worker compiles the engine first)
-    while "set a smaller run.dt" not in _text(page):
+    # (a user dt above the stability limit: the message names the timestep as the cause)
+    while "The cause is the timestep" not in _text(page):
         assert time.monotonic() < deadline, "the run did not fail"
         time.sleep(0.5)
     time.sleep(1.0)  # (the list and the detail follow within a poll)
     text = _text(page)
     # the row: the message's start, cut with "…"; the whole message on the status line and
     # under the list (the selected run's detail), not in the row
-    assert text.count("set a smaller run.dt") == 2, text
+    assert text.count("The cause is the timestep") == 2, text
     assert "instability: body displacement per step …" in text  # the row: 40 characters
     runs = page.get_by_label("run", exact=True)
     assert runs.input_value().startswith(first)
