@@ -121,6 +121,6 @@ def server(tmp_path_factory):
 
 @pytest.fixture
 def long_scene(tiny_scene):
-    """The tiny scene run long enough (0.5 s simulated: several wall seconds) to act on
-    while it runs; the box holds still after its 4 ms of travel."""
-    return tiny_scene(duration=0.5, record_interval=0.005)
+    """The tiny scene run long enough (2 s simulated: several wall seconds) to act on while
+    it runs; the box holds still after its 4 ms of travel."""
+    return tiny_scene(duration=2.0, record_interval=0.005)
