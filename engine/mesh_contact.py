@@ -1,0 +1,226 @@
+"""Body-body contact between two closed triangle meshes (the chaser's hull against the debris).
+
+Law: vertex-in-body penalty, both ways. Every vertex p of body A that lies inside the closed
+(watertight) mesh of body B is pushed out along the shortest way to B's surface:
+
+    U = 1/2 k_n d(p)^2,   F_A = -grad_p U = k_n (c - p),   F_B = -F_A, both at p,
+
+with c the closest point of B's surface and d = |c - p| the vertex's depth; the same for B's
+vertices inside A. Why this law:
+
+* **Conservative.** U is a function of the relative pose of the two bodies only. Moving B
+  rigidly moves p relative to B the opposite way, so -F_A applied at p is exactly B's part
+  of -grad U (force and torque), and frictionless, undamped contact keeps the total energy
+  up to leapfrog's O(dt^2) error. U and its gradient are continuous where a vertex enters
+  (d = 0), so the penalty starts smoothly.
+* **Momentum.** Equal and opposite forces at one point: total linear and angular momentum
+  are conserved to round-off (seed appendix H found YADE losing it in clump collisions).
+* **Reuses the engine's tested pieces**: the inside test and the closest triangle of
+  ``body_contacts.deep_closest`` (per-body uniform grid, angle-weighted pseudo-normals), and
+  the Cundall-Strack law of ``contact_law.contact_force`` for restitution and friction, with
+  a tangential spring kept per (vertex, other body).
+
+Stiffness (``pair_stiffness``): each vertex carries the body's mean share of its surface,
+a disc of radius ``a = sqrt(S / (pi V))`` (S surface area, V vertex count); a rigid flat
+punch of radius a on an elastic half-space has stiffness 2 E a, two in series give seed eq.
+3.6 with both lengths a: ``k_n = 2 E1 a1 E2 a2 / (E1 a1 + E2 a2)``. It is one number per
+body pair, so a box resting on a face carries its weight equally on its four corners.
+
+Limits (docs/scene.md): only vertices are tested, so two edges crossing with no vertex of
+either body inside the other (two boxes meeting edge to edge, crossed) do not touch until a
+vertex enters; a vertex pushed past the middle of the other body (deeper than half its
+thickness) is pushed out of the far side. Both meshes must be closed (watertight): an open
+mesh has no inside. Coarse meshes give few contact points: a face resting on a face
+touches at the resting body's vertices only.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .bodies import FIXED, KINEMATIC
+from .body_contacts import deep_closest
+from .contact_law import contact_force, normal_stiffness
+from .rotations import qrot, qrot_inv
+
+
+def vertex_contact_length(vertices: np.ndarray, triangles: np.ndarray) -> float:
+    """The radius a = sqrt(S / (pi V)) of a vertex's mean share of the surface (m)."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    if len(v) == 0 or len(t) == 0:
+        return 0.0
+    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]),
+                                axis=1).sum()
+    return math.sqrt(area / (math.pi * len(v)))
+
+
+def pair_stiffness(E1: float, a1: float, E2: float, a2: float) -> float:
+    """k_n of one vertex contact between bodies of moduli E1, E2 and vertex lengths a1, a2
+    (two flat punches in series, seed eq. 3.6)."""
+    return float(normal_stiffness(float(E1), float(a1), float(E2), float(a2)))
+
+
+def mesh_contact_stiffness(bodies, k: int) -> float:
+    """The summed normal stiffness that mesh-mesh contacts can put on body k (N/m), for the
+    automatic timestep (``engine.timestep``): every vertex of k and of each partner inside
+    the other at once (an upper bound), counted twice (two-sided rows: the partner is
+    assumed no lighter), as for sphere contacts."""
+    vs = bodies.vert_start
+    total = 0.0
+    for j in range(bodies.mesh_kn.shape[0]):
+        kn = float(bodies.mesh_kn[k, j])
+        if kn > 0.0:
+            n_contacts = int(vs[k + 1] - vs[k] + vs[j + 1] - vs[j])
+            total += 2.0 * kn * n_contacts
+    return total
+
+
+@njit(cache=True)
+def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, vert_start,
+                       pair_kn, pair_len, verts, tris, tnormal, pnormal, grid_origin,
+                       grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
+                       kt_table, zeta_table, ft, friction, scratch, bf, btq, stats, dt):
+    """Vertex-in-body contacts of every body pair with ``pair_kn[a, b] > 0`` (set by
+    ``build``: both closed meshes that collide, at least one moving). ``ft`` is the
+    tangential history per (global vertex, other body), used only with ``friction``.
+    Adds to ``stats`` (which the sphere contacts filled first): [count, stored energy,
+    dissipated energy, max depth / pair_len]."""
+    nk = bpos.shape[0]
+    count = 0
+    e_sto = 0.0
+    e_dis = 0.0
+    worst = 0.0
+    for a in range(nk):
+        for b in range(a + 1, nk):
+            kn = pair_kn[a, b]
+            if kn <= 0.0:
+                continue
+            dx = bpos[a, 0] - bpos[b, 0]
+            dy = bpos[a, 1] - bpos[b, 1]
+            dz = bpos[a, 2] - bpos[b, 2]
+            apart = dx * dx + dy * dy + dz * dz >= (bound_r[a] + bound_r[b]) ** 2
+            for side in range(2):
+                s = a if side == 0 else b
+                t = b if side == 0 else a
+                if apart:
+                    if friction:
+                        for i in range(vert_start[s], vert_start[s + 1]):
+                            ft[i, t, 0] = 0.0
+                            ft[i, t, 1] = 0.0
+                            ft[i, t, 2] = 0.0
+                    continue
+                c, es, ed, wr = _vertices_in_body(
+                    s, t, kn, pair_len[a, b], bpos, bq, bv, bw, bmass, motion, bound_r,
+                    body_material, vert_start, verts, tris, tnormal, pnormal, grid_origin,
+                    grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
+                    kt_table, zeta_table, ft, friction, scratch, bf, btq, dt)
+                count += c
+                e_sto += es
+                e_dis += ed
+                worst = max(worst, wr)
+    stats[0] += count
+    stats[1] += e_sto
+    stats[2] += e_dis
+    stats[3] = max(stats[3], worst)
+
+
+@njit(cache=True)
+def _vertices_in_body(s, t, kn, length, bpos, bq, bv, bw, bmass, motion, bound_r,
+                      body_material, vert_start, verts, tris, tnormal, pnormal, grid_origin,
+                      grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
+                      kt_table, zeta_table, ft, friction, scratch, bf, btq, dt):
+    """Contacts of body s's vertices inside body t; forces added to bf, btq. Returns
+    (count, stored, dissipated, max depth / length)."""
+    static_s = motion[s] == FIXED or motion[s] == KINEMATIC
+    static_t = motion[t] == FIXED or motion[t] == KINEMATIC
+    if static_s:
+        meff = bmass[t]
+    elif static_t:
+        meff = bmass[s]
+    else:
+        meff = bmass[s] * bmass[t] / (bmass[s] + bmass[t])
+    m1 = body_material[s]
+    m2 = body_material[t]
+    kt = kt_table[m1, m2] * kn
+    mu = mu_table[m1, m2]
+    zeta = zeta_table[m1, m2]
+    sw, sx, sy, sz = bq[s, 0], bq[s, 1], bq[s, 2], bq[s, 3]
+    tw, tx, ty, tz = bq[t, 0], bq[t, 1], bq[t, 2], bq[t, 3]
+    reach2 = bound_r[t] * bound_r[t]
+    count = 0
+    e_sto = 0.0
+    e_dis = 0.0
+    worst = 0.0
+    for i in range(vert_start[s], vert_start[s + 1]):
+        # the vertex in the world, then in t's frame
+        rsx, rsy, rsz = qrot(sw, sx, sy, sz, verts[i, 0], verts[i, 1], verts[i, 2])
+        px = bpos[s, 0] + rsx
+        py = bpos[s, 1] + rsy
+        pz = bpos[s, 2] + rsz
+        ex = px - bpos[t, 0]
+        ey = py - bpos[t, 1]
+        ez = pz - bpos[t, 2]
+        tri = -1
+        u = v = w = d = 0.0
+        if ex * ex + ey * ey + ez * ez <= reach2:
+            scratch[0], scratch[1], scratch[2] = qrot_inv(tw, tx, ty, tz, ex, ey, ez)
+            tri, u, v, w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, pnormal,
+                                           grid_origin, grid_cell, grid_dims, grid_base,
+                                           grid_start, grid_tris)
+        if tri < 0 or d <= 0.0:
+            if friction:
+                ft[i, t, 0] = 0.0
+                ft[i, t, 1] = 0.0
+                ft[i, t, 2] = 0.0
+            continue
+        va = verts[tris[tri, 0]]
+        vb = verts[tris[tri, 1]]
+        vc = verts[tris[tri, 2]]
+        # outward: from the vertex to t's closest surface point (t's frame, then world)
+        gx = (u * va[0] + v * vb[0] + w * vc[0] - scratch[0]) / d
+        gy = (u * va[1] + v * vb[1] + w * vc[1] - scratch[1]) / d
+        gz = (u * va[2] + v * vb[2] + w * vc[2] - scratch[2]) / d
+        nx, ny, nz = qrot(tw, tx, ty, tz, gx, gy, gz)
+        # velocity of s's material point at p relative to t's
+        vx = (bv[s, 0] + bw[s, 1] * rsz - bw[s, 2] * rsy) - (bv[t, 0] + bw[t, 1] * ez
+                                                             - bw[t, 2] * ey)
+        vy = (bv[s, 1] + bw[s, 2] * rsx - bw[s, 0] * rsz) - (bv[t, 1] + bw[t, 2] * ex
+                                                             - bw[t, 0] * ez)
+        vz = (bv[s, 2] + bw[s, 0] * rsy - bw[s, 1] * rsx) - (bv[t, 2] + bw[t, 0] * ey
+                                                             - bw[t, 1] * ex)
+        if friction:
+            f0 = ft[i, t, 0]
+            f1 = ft[i, t, 1]
+            f2 = ft[i, t, 2]
+        else:
+            f0 = 0.0
+            f1 = 0.0
+            f2 = 0.0
+        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(nx, ny, nz, d, vx, vy, vz, kn, kt,
+                                                         mu, zeta, meff, f0, f1, f2,
+                                                         friction, dt)
+        if friction:
+            ft[i, t, 0] = f0
+            ft[i, t, 1] = f1
+            ft[i, t, 2] = f2
+        bf[s, 0] += Fx
+        bf[s, 1] += Fy
+        bf[s, 2] += Fz
+        btq[s, 0] += rsy * Fz - rsz * Fy
+        btq[s, 1] += rsz * Fx - rsx * Fz
+        btq[s, 2] += rsx * Fy - rsy * Fx
+        bf[t, 0] -= Fx
+        bf[t, 1] -= Fy
+        bf[t, 2] -= Fz
+        btq[t, 0] -= ey * Fz - ez * Fy
+        btq[t, 1] -= ez * Fx - ex * Fz
+        btq[t, 2] -= ex * Fy - ey * Fx
+        count += 1
+        e_sto += sto
+        e_dis += dis
+        if length > 0.0:
+            worst = max(worst, d / length)
+    return count, e_sto, e_dis, worst
