@@ -16,7 +16,8 @@ from . import meshes, overlap
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
 from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
-from .mesh_contact import mesh_contact_stiffness, pair_stiffness, vertex_contact_length
+from .mesh_contact import (contact_points, mesh_contact_stiffness, pair_stiffness,
+                           point_contact_length)
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
@@ -282,8 +283,9 @@ def build(scene: Scene) -> System:
     watertight = np.zeros(K, np.bool_)
     bmat = np.zeros(K, np.int64)
     collide = np.zeros(K, np.bool_)
-    vertex_len = np.zeros(K)   # engine.mesh_contact: radius of a vertex's share of surface
-    vert_start = np.zeros(K + 1, np.int64)
+    point_len = np.zeros(K)   # engine.mesh_contact: radius of a point's share of surface
+    point_start = np.zeros(K + 1, np.int64)
+    points_all = []
     seg_rows = []
     seg_start = [0]
     verts_all, tris_all, normals_all, pnormals_all = [], [], [], []
@@ -333,8 +335,9 @@ def build(scene: Scene) -> System:
         c_off += int(np.prod(dims))
         v_off += len(vp)
         t_off += len(tris)
-        vert_start[k + 1] = v_off
-        vertex_len[k] = vertex_contact_length(vp, tris)
+        points_all.append(contact_points(vp, tris, body.contact_spacing))
+        point_start[k + 1] = point_start[k] + len(points_all[-1])
+        point_len[k] = point_contact_length(vp, tris, len(points_all[-1]))
         sphere_r[k] = geo.sphere_radius
         bound_r[k] = geo.bounding_radius
         watertight[k] = geo.watertight
@@ -565,7 +568,8 @@ def build(scene: Scene) -> System:
         grid_origin=g_origin, grid_cell=g_cell, grid_dims=g_dims, grid_base=g_base,
         grid_start=np.ascontiguousarray(g_start, np.int64),
         grid_tris=np.ascontiguousarray(g_tris, np.int64), ft_bb=np.zeros((K, K, 3)),
-        scratch=np.zeros(3), scratch2=np.zeros((2, 3)), vert_start=vert_start,
+        scratch=np.zeros(3), scratch2=np.zeros((2, 3)), point_start=point_start,
+        points=np.concatenate(points_all) if K else np.zeros((1, 3)),
         mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)), ft_mesh=np.zeros((1, 1, 3)))
     # kinematic bodies start on their profile
     from .bodies import kinematic_state
@@ -611,11 +615,11 @@ def build(scene: Scene) -> System:
                                     f"mesh-mesh contact needs two closed (watertight) "
                                     f"meshes; this pair does not touch")
                     continue
-                kn_pair = pair_stiffness(E_tab[bmat[k1]], vertex_len[k1], E_tab[bmat[k2]],
-                                         vertex_len[k2])
+                kn_pair = pair_stiffness(E_tab[bmat[k1]], point_len[k1], E_tab[bmat[k2]],
+                                         point_len[k2])
                 bodies.mesh_kn[k1, k2] = bodies.mesh_kn[k2, k1] = kn_pair
-                bodies.mesh_len[k1, k2] = bodies.mesh_len[k2, k1] = min(vertex_len[k1],
-                                                                        vertex_len[k2])
+                bodies.mesh_len[k1, k2] = bodies.mesh_len[k2, k1] = min(point_len[k1],
+                                                                        point_len[k2])
                 meshmesh_needed = True
             elif excluded:
                 raise SceneError.single(f"bodies.{k1}.no_contact_with", body_names[k2],
@@ -626,7 +630,7 @@ def build(scene: Scene) -> System:
     fr_body = bbody_needed and any(mu[a, b] > 0 for a in bristle_mats for b in body_mats)
     fr_bodybody = bodybody_needed and any(mu[a, b] > 0 for a in body_mats for b in body_mats)
     if meshmesh_needed and fr_bodybody:
-        bodies = bodies._replace(ft_mesh=np.zeros((len(verts), K, 3)))
+        bodies = bodies._replace(ft_mesh=np.zeros((int(point_start[-1]), K, 3)))
     rigid = bool(np.any(motion != FIXED))
     mounted = bool(np.any(roots.body >= 0))
     has_gravity = bool(np.any(gravity != 0)) and (bool(node_free.any()) or rigid)

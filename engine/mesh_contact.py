@@ -20,18 +20,23 @@ vertices inside A. Why this law:
   the Cundall-Strack law of ``contact_law.contact_force`` for restitution and friction, with
   a tangential spring kept per (vertex, other body).
 
-Stiffness (``pair_stiffness``): each vertex carries the body's mean share of its surface,
-a disc of radius ``a = sqrt(S / (pi V))`` (S surface area, V vertex count); a rigid flat
+Contact points (``contact_points``): the mesh's vertices, and with the body's
+``contact_spacing`` also points along its edges and inside its faces, at most that far
+apart; what is said of vertices here holds for every contact point.
+
+Stiffness (``pair_stiffness``): each point carries the body's mean share of its surface,
+a disc of radius ``a = sqrt(S / (pi P))`` (S surface area, P point count); a rigid flat
 punch of radius a on an elastic half-space has stiffness 2 E a, two in series give seed eq.
 3.6 with both lengths a: ``k_n = 2 E1 a1 E2 a2 / (E1 a1 + E2 a2)``. It is one number per
 body pair, so a box resting on a face carries its weight equally on its four corners.
 
-Limits (docs/scene.md): only vertices are tested, so two edges crossing with no vertex of
-either body inside the other (two boxes meeting edge to edge, crossed) do not touch until a
-vertex enters; a vertex pushed past the middle of the other body (deeper than half its
+Limits (docs/scene.md): only contact points are tested, so two edges crossing with no
+point of either body inside the other (two boxes meeting edge to edge, crossed; a box's
+face against a cylinder's side, whose vertices are on its rims) do not touch until a point
+enters: a ``contact_spacing`` bounds that depth; a vertex pushed past the middle of the other body (deeper than half its
 thickness) is pushed out of the far side. Both meshes must be closed (watertight): an open
-mesh has no inside. Coarse meshes give few contact points: a face resting on a face
-touches at the resting body's vertices only.
+mesh has no inside. Without a spacing, a face resting on a face touches at
+the resting body's vertices only.
 """
 from __future__ import annotations
 
@@ -46,15 +51,45 @@ from .contact_law import contact_force, normal_stiffness
 from .rotations import qrot, qrot_inv
 
 
-def vertex_contact_length(vertices: np.ndarray, triangles: np.ndarray) -> float:
-    """The radius a = sqrt(S / (pi V)) of a vertex's mean share of the surface (m)."""
+def contact_points(vertices: np.ndarray, triangles: np.ndarray,
+                   spacing: float | None = None) -> np.ndarray:
+    """The points of a body's surface (its frame) that are tested against other meshes: the
+    vertices, and with a ``spacing`` (m) also points along every edge longer than it (at
+    most ``spacing`` apart) and inside every triangle whose longest edge exceeds it (a
+    barycentric grid of the same step). Points are fixed to the body, so the law stays
+    conservative; they let a face touch where the mesh has no vertex (a box's face against a
+    cylinder's side)."""
     v = np.asarray(vertices, float)
     t = np.asarray(triangles, np.int64)
-    if len(v) == 0 or len(t) == 0:
+    pts = [v]
+    if spacing is not None and len(t):
+        edges = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]),
+                                  axis=1), axis=0)
+        for i, j in edges:
+            n = math.ceil(np.linalg.norm(v[j] - v[i]) / spacing)
+            if n > 1:
+                f = np.arange(1, n)[:, None] / n
+                pts.append(v[i] + f * (v[j] - v[i]))
+        for a, b, c in t:
+            longest = max(np.linalg.norm(v[b] - v[a]), np.linalg.norm(v[c] - v[b]),
+                          np.linalg.norm(v[a] - v[c]))
+            m = math.ceil(longest / spacing)
+            ij = [(i, j) for i in range(1, m) for j in range(1, m - i)]
+            if ij:
+                w = np.array(ij, float) / m
+                pts.append(v[a] + w[:, :1] * (v[b] - v[a]) + w[:, 1:] * (v[c] - v[a]))
+    return np.concatenate(pts)
+
+
+def point_contact_length(vertices: np.ndarray, triangles: np.ndarray, n_points: int) -> float:
+    """The radius a = sqrt(S / (pi P)) of a contact point's mean share of the surface (m)."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    if n_points == 0 or len(t) == 0:
         return 0.0
     area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]),
                                 axis=1).sum()
-    return math.sqrt(area / (math.pi * len(v)))
+    return math.sqrt(area / (math.pi * n_points))
 
 
 def pair_stiffness(E1: float, a1: float, E2: float, a2: float) -> float:
@@ -68,7 +103,7 @@ def mesh_contact_stiffness(bodies, k: int) -> float:
     automatic timestep (``engine.timestep``): every vertex of k and of each partner inside
     the other at once (an upper bound), counted twice (two-sided rows: the partner is
     assumed no lighter), as for sphere contacts."""
-    vs = bodies.vert_start
+    vs = bodies.point_start
     total = 0.0
     for j in range(bodies.mesh_kn.shape[0]):
         kn = float(bodies.mesh_kn[k, j])
@@ -79,13 +114,14 @@ def mesh_contact_stiffness(bodies, k: int) -> float:
 
 
 @njit(cache=True)
-def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, vert_start,
-                       pair_kn, pair_len, verts, tris, tnormal, pnormal, grid_origin,
+def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, point_start,
+                       points, pair_kn, pair_len, verts, tris, tnormal, pnormal, grid_origin,
                        grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
                        kt_table, zeta_table, ft, friction, scratch, bf, btq, stats, dt):
-    """Vertex-in-body contacts of every body pair with ``pair_kn[a, b] > 0`` (set by
-    ``build``: both closed meshes that collide, at least one moving). ``ft`` is the
-    tangential history per (global vertex, other body), used only with ``friction``.
+    """Point-in-body contacts of every body pair with ``pair_kn[a, b] > 0`` (set by
+    ``build``: both closed meshes that collide, at least one moving). ``points`` holds each
+    body's contact points (body frame), body k's from ``point_start[k]``; ``ft`` is the
+    tangential history per (global point, other body), used only with ``friction``.
     Adds to ``stats`` (which the sphere contacts filled first): [count, stored energy,
     dissipated energy, max depth / pair_len]."""
     nk = bpos.shape[0]
@@ -107,15 +143,15 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
                 t = b if side == 0 else a
                 if apart:
                     if friction:
-                        for i in range(vert_start[s], vert_start[s + 1]):
+                        for i in range(point_start[s], point_start[s + 1]):
                             ft[i, t, 0] = 0.0
                             ft[i, t, 1] = 0.0
                             ft[i, t, 2] = 0.0
                     continue
-                c, es, ed, wr = _vertices_in_body(
+                c, es, ed, wr = _points_in_body(
                     s, t, kn, pair_len[a, b], bpos, bq, bv, bw, bmass, motion, bound_r,
-                    body_material, vert_start, verts, tris, tnormal, pnormal, grid_origin,
-                    grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
+                    body_material, point_start, points, verts, tris, tnormal, pnormal,
+                    grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
                     kt_table, zeta_table, ft, friction, scratch, bf, btq, dt)
                 count += c
                 e_sto += es
@@ -128,11 +164,11 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
 
 
 @njit(cache=True)
-def _vertices_in_body(s, t, kn, length, bpos, bq, bv, bw, bmass, motion, bound_r,
-                      body_material, vert_start, verts, tris, tnormal, pnormal, grid_origin,
-                      grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
+def _points_in_body(s, t, kn, length, bpos, bq, bv, bw, bmass, motion, bound_r,
+                    body_material, point_start, points, verts, tris, tnormal, pnormal,
+                    grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
                       kt_table, zeta_table, ft, friction, scratch, bf, btq, dt):
-    """Contacts of body s's vertices inside body t; forces added to bf, btq. Returns
+    """Contacts of body s's contact points (``contact_points``) inside body t; forces added to bf, btq. Returns
     (count, stored, dissipated, max depth / length)."""
     static_s = motion[s] == FIXED or motion[s] == KINEMATIC
     static_t = motion[t] == FIXED or motion[t] == KINEMATIC
@@ -154,9 +190,9 @@ def _vertices_in_body(s, t, kn, length, bpos, bq, bv, bw, bmass, motion, bound_r
     e_sto = 0.0
     e_dis = 0.0
     worst = 0.0
-    for i in range(vert_start[s], vert_start[s + 1]):
+    for i in range(point_start[s], point_start[s + 1]):
         # the vertex in the world, then in t's frame
-        rsx, rsy, rsz = qrot(sw, sx, sy, sz, verts[i, 0], verts[i, 1], verts[i, 2])
+        rsx, rsy, rsz = qrot(sw, sx, sy, sz, points[i, 0], points[i, 1], points[i, 2])
         px = bpos[s, 0] + rsx
         py = bpos[s, 1] + rsy
         pz = bpos[s, 2] + rsz

@@ -315,6 +315,11 @@ class Body(_Model):
     no_contact_with: list[str] = Field(
         default_factory=list, description="names of other bodies this body never touches "
                                           "(e.g. a chaser and a fixture it is docked to)")
+    contact_spacing: Optional[PositiveFloat] = Field(
+        None, description="m; mesh-mesh contact tests the mesh's vertices, and with a "
+                          "spacing also points along its edges and inside its faces at most "
+                          "this far apart (needed where a face meets another body away from "
+                          "its vertices, e.g. a cylinder's side)")
     external_force: Vector3 = Field(
         (0.0, 0.0, 0.0), description="constant force on a free body's centre of mass, world "
                                      "(Hill) axes, N: a disturbance such as a thruster bias")

@@ -467,7 +467,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                tb.mu, tb.kt, tb.zeta, bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
                                stats, dt)
             mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r,
-                               bd.material, bd.vert_start, bd.mesh_kn, bd.mesh_len, bd.verts,
+                               bd.material, bd.point_start, bd.points, bd.mesh_kn,
+                               bd.mesh_len, bd.verts,
                                bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
                                bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.mu,
                                tb.kt, tb.zeta, bd.ft_mesh, fl.friction_body_body, bd.scratch,
