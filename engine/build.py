@@ -335,7 +335,11 @@ def build(scene: Scene) -> System:
         c_off += int(np.prod(dims))
         v_off += len(vp)
         t_off += len(tris)
-        points_all.append(contact_points(vp, tris, body.contact_spacing))
+        try:
+            points_all.append(contact_points(vp, tris, body.contact_spacing))
+        except ValueError as exc:
+            raise SceneError.single(f"{fld}.contact_spacing", body.contact_spacing,
+                                    str(exc)) from None
         point_start[k + 1] = point_start[k] + len(points_all[-1])
         point_len[k] = point_contact_length(vp, tris, len(points_all[-1]))
         sphere_r[k] = geo.sphere_radius

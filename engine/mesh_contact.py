@@ -33,10 +33,10 @@ body pair, so a box resting on a face carries its weight equally on its four cor
 Limits (docs/scene.md): only contact points are tested, so two edges crossing with no
 point of either body inside the other (two boxes meeting edge to edge, crossed; a box's
 face against a cylinder's side, whose vertices are on its rims) do not touch until a point
-enters: a ``contact_spacing`` bounds that depth; a vertex pushed past the middle of the other body (deeper than half its
-thickness) is pushed out of the far side. Both meshes must be closed (watertight): an open
-mesh has no inside. Without a spacing, a face resting on a face touches at
-the resting body's vertices only.
+enters: a ``contact_spacing`` bounds that depth; a point pushed past the middle of the
+other body (deeper than half its thickness) is pushed out of the far side. Both meshes must
+be closed (watertight): an open mesh has no inside. Without a spacing, a face resting on a
+face touches at the resting body's vertices only.
 """
 from __future__ import annotations
 
@@ -51,6 +51,9 @@ from .contact_law import contact_force, normal_stiffness
 from .rotations import qrot, qrot_inv
 
 
+MAX_CONTACT_POINTS = 200_000  # per body: memory (history per point and body) and cost
+
+
 def contact_points(vertices: np.ndarray, triangles: np.ndarray,
                    spacing: float | None = None) -> np.ndarray:
     """The points of a body's surface (its frame) that are tested against other meshes: the
@@ -63,6 +66,12 @@ def contact_points(vertices: np.ndarray, triangles: np.ndarray,
     t = np.asarray(triangles, np.int64)
     pts = [v]
     if spacing is not None and len(t):
+        # a triangle of area A holds about 2 A / spacing^2 grid points
+        estimate = len(v) + 2.0 * _area(v, t) / spacing ** 2
+        if estimate > MAX_CONTACT_POINTS:
+            raise ValueError(f"about {estimate:.3g} contact points (at most "
+                             f"{MAX_CONTACT_POINTS}): use a spacing of at least "
+                             f"{math.sqrt(2.0 * _area(v, t) / MAX_CONTACT_POINTS):.3g} m")
         edges = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]),
                                   axis=1), axis=0)
         for i, j in edges:
@@ -87,9 +96,12 @@ def point_contact_length(vertices: np.ndarray, triangles: np.ndarray, n_points: 
     t = np.asarray(triangles, np.int64)
     if n_points == 0 or len(t) == 0:
         return 0.0
-    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]),
-                                axis=1).sum()
-    return math.sqrt(area / (math.pi * n_points))
+    return math.sqrt(_area(v, t) / (math.pi * n_points))
+
+
+def _area(v: np.ndarray, t: np.ndarray) -> float:
+    return float(0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]),
+                                      axis=1).sum())
 
 
 def pair_stiffness(E1: float, a1: float, E2: float, a2: float) -> float:
@@ -166,10 +178,10 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
 @njit(cache=True)
 def _points_in_body(s, t, kn, length, bpos, bq, bv, bw, bmass, motion, bound_r,
                     body_material, point_start, points, verts, tris, tnormal, pnormal,
-                    grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
-                      kt_table, zeta_table, ft, friction, scratch, bf, btq, dt):
-    """Contacts of body s's contact points (``contact_points``) inside body t; forces added to bf, btq. Returns
-    (count, stored, dissipated, max depth / length)."""
+                    grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris,
+                    mu_table, kt_table, zeta_table, ft, friction, scratch, bf, btq, dt):
+    """Contacts of body s's contact points (``contact_points``) inside body t; forces added
+    to bf, btq. Returns (count, stored, dissipated, max depth / length)."""
     static_s = motion[s] == FIXED or motion[s] == KINEMATIC
     static_t = motion[t] == FIXED or motion[t] == KINEMATIC
     if static_s:
