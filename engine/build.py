@@ -16,8 +16,8 @@ from . import meshes, overlap
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
 from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
-from .mesh_contact import (contact_points, mesh_contact_stiffness, pair_stiffness,
-                           point_contact_length)
+from .mesh_contact import (contact_points, initial_overlap, mesh_contact_stiffness,
+                           pair_stiffness, point_contact_length)
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
@@ -813,6 +813,16 @@ def build(scene: Scene) -> System:
                        MAX_BODY_STEP_RATIO * (r_min if N else 1.0), skin, alpha])
     acc = np.zeros(ACC_SIZE)
     tables = Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity)
+    if meshmesh_needed:
+        touching, depth = initial_overlap(bodies, tables)
+        if depth > MAX_OVERLAP_RATIO:
+            raise SceneError.single("bodies", body_names, (
+                f"two mesh bodies start interpenetrating ({depth:.3g} x the contact point "
+                f"length deep, limit {MAX_OVERLAP_RATIO}): move them apart, or list one in "
+                f"the other's no_contact_with"))
+        if touching:
+            warnings.append(f"{touching} mesh-mesh contact point(s) start inside another "
+                            f"body (at most {depth:.3g} x the contact point length deep)")
     system = System(scene=scene, nodes=nodes, bonds=bonds, roots=roots, bodies=bodies,
                     pairs=pairs, body_pairs=body_pairs, loads=loads, tables=tables,
                     flags=flags, acc=acc, err=np.zeros(4), stage_time=np.zeros(len(STAGES)),

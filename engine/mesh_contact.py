@@ -125,6 +125,20 @@ def mesh_contact_stiffness(bodies, k: int) -> float:
     return total
 
 
+def initial_overlap(bodies, tables) -> tuple[int, float]:
+    """(contacts, max depth / pair length) of the mesh-mesh contacts in the built state,
+    from the step loop's own kernel run on scratch force arrays (nothing is changed)."""
+    bd = bodies
+    stats = np.zeros(5)
+    mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r, bd.material,
+                       bd.point_start, bd.points, bd.mesh_kn, bd.mesh_len, bd.verts, bd.tris,
+                       bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
+                       bd.grid_base, bd.grid_start, bd.grid_tris, tables.mu, tables.kt,
+                       tables.zeta, bd.ft_mesh.copy(), 0, np.zeros(3), np.zeros_like(bd.f),
+                       np.zeros_like(bd.tq), stats, 1.0)
+    return int(stats[0]), float(stats[3])
+
+
 @njit(cache=True)
 def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, point_start,
                        points, pair_kn, pair_len, verts, tris, tnormal, pnormal, grid_origin,

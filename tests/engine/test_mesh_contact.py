@@ -349,3 +349,14 @@ def test_brush_on_a_chaser_whose_hull_hits_debris_conserves_angular_momentum():
     assert system.bodies.w[1, 2] < 19.9, "the bristles must slow the spinning cube"
     assert system.bodies.v[2, 1] < 0.5 * vy0, "the hull must stop the second cube"
     assert drift < 1e-10  # round-off only
+
+
+def test_bodies_built_inside_each_other_are_refused():
+    # a 60 mm cube whose corner sits 30 mm inside the target: the first step would fling it
+    data = _impact_scene(0.002).model_dump(mode="json")
+    data["bodies"][1]["pose"]["position"][0] = -0.05 - 0.03 * math.sqrt(3.0) + 0.03
+    with pytest.raises(engine.SceneError, match="interpenetrating"):
+        engine.build(engine.parse_scene(data))
+    data["bodies"][1]["pose"]["position"][0] = -0.05 - 0.03 * math.sqrt(3.0) + 1e-4
+    system = engine.build(engine.parse_scene(data))
+    assert any("start inside another body" in w for w in system.warnings)
