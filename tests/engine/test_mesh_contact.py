@@ -360,3 +360,29 @@ def test_bodies_built_inside_each_other_are_refused():
     data["bodies"][1]["pose"]["position"][0] = -0.05 - 0.03 * math.sqrt(3.0) + 1e-4
     system = engine.build(engine.parse_scene(data))
     assert any("start inside another body" in w for w in system.warnings)
+
+
+def test_sampled_face_resting_on_a_face_is_stable_at_the_automatic_dt():
+    """More points touching than the timestep assumes (``MESH_CONTACTS``): the automatic dt
+    must still hold, and the face carries the weight (force balance, any stiffness)."""
+    from engine.mesh_contact import MESH_CONTACTS
+    small, big = 0.05, 0.2
+    z0 = big / 2 + small / 2
+    block = _box("block", small, (0.01, 0.0, z0), contact_spacing=0.004)
+    scene = engine.parse_scene({
+        "materials": {"m": RUBBERY},
+        "contact_pairs": [{"materials": ["m", "m"], "friction_angle": 0.3,
+                           "restitution": 0.2}],
+        "environment": {"gravity": [0.0, 0.0, -9.81]},
+        "bodies": [_box("floor", big, (0.0, 0.0, 0.0), motion="fixed"), block],
+        "run": {"duration": 1.0, "record_interval": 1.0, "channels": ["bodies"]}})
+    system = engine.build(scene)
+    assert "contacts of body 'block'" in system.dt_limited_by
+    engine.run(system)  # raises InstabilityError if the dt does not hold
+    bd = system.bodies
+    n = system.acc[ACC_N_BODYBODY]
+    FIGURES["sampled face on face: points touching"] = n
+    assert n > MESH_CONTACTS
+    assert np.linalg.norm(bd.v[1]) < 1e-6
+    m = 7800.0 * small ** 3
+    assert bd.f[1] == pytest.approx([0.0, 0.0, m * 9.81], abs=1e-3 * m * 9.81)
