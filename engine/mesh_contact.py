@@ -15,10 +15,11 @@ vertices inside A. Why this law:
   (d = 0), so the penalty starts smoothly.
 * **Momentum.** Equal and opposite forces at one point: total linear and angular momentum
   are conserved to round-off (seed appendix H found YADE losing it in clump collisions).
-* **Reuses the engine's tested pieces**: the inside test and the closest triangle of
-  ``body_contacts.deep_closest`` (per-body uniform grid, angle-weighted pseudo-normals), and
-  the Cundall-Strack law of ``contact_law.contact_force`` for restitution and friction, with
-  a tangential spring kept per (vertex, other body).
+* **Reuses the engine's tested pieces**: the closest triangle within reach
+  (``body_contacts.closest_triangle``, per-body uniform grid), the inside test by the
+  feature's angle-weighted pseudo-normal (``body_contacts.feature_normal``), and the
+  Cundall-Strack law of ``contact_law.contact_force`` for restitution and friction, with a
+  tangential spring kept per (point, other body).
 
 Contact points (``contact_points``): the mesh's vertices, and with the body's
 ``contact_spacing`` also points along its edges and inside its faces, at most that far
@@ -46,7 +47,7 @@ import numpy as np
 from numba import njit
 
 from .bodies import FIXED, KINEMATIC
-from .body_contacts import deep_closest
+from .body_contacts import closest_triangle, feature_normal
 from .contact_law import contact_force, normal_stiffness
 from .rotations import qrot, qrot_inv
 
@@ -190,11 +191,12 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
                 continue
             hits_a = np.empty((point_start[a + 1] - point_start[a], HIT_SIZE))
             hits_b = np.empty((point_start[b + 1] - point_start[b], HIT_SIZE))
-            na = _find_points_in_body(a, b, bpos, bq, bound_r, point_start, points, verts,
+            reach = pair_len[a, b]
+            na = _find_points_in_body(a, b, reach, bpos, bq, bound_r, point_start, points, verts,
                                       tris, tnormal, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
                                       friction, scratch, hits_a)
-            nb = _find_points_in_body(b, a, bpos, bq, bound_r, point_start, points, verts,
+            nb = _find_points_in_body(b, a, reach, bpos, bq, bound_r, point_start, points, verts,
                                       tris, tnormal, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
                                       friction, scratch, hits_b)
@@ -218,12 +220,17 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
 
 
 @njit(cache=True)
-def _find_points_in_body(s, t, bpos, bq, bound_r, point_start, points, verts, tris,
+def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, verts, tris,
                          tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                          grid_start, grid_tris, ft, friction, scratch, hits):
     """Body s's contact points (``contact_points``) inside body t, into ``hits`` rows
     [point, depth, outward normal (world), arm from s's centre, arm from t's centre];
-    points outside forget their tangential history. Returns how many."""
+    points outside forget their tangential history. Only points within ``reach`` (the
+    pair's point length) of t's surface are looked at: the step loop stops once a point is
+    half that deep (``MAX_OVERLAP_RATIO``), so none can be deeper, and a point near but
+    outside costs a short search instead of one for the closest triangle at any distance
+    (on a 1.5 m hull beside an upper stage sampled at 0.1 m: 914 -> 114 us per step).
+    Returns how many."""
     sw, sx, sy, sz = bq[s, 0], bq[s, 1], bq[s, 2], bq[s, 3]
     tw, tx, ty, tz = bq[t, 0], bq[t, 1], bq[t, 2], bq[t, 3]
     reach2 = bound_r[t] * bound_r[t]
@@ -238,9 +245,19 @@ def _find_points_in_body(s, t, bpos, bq, bound_r, point_start, points, verts, tr
         u = v = w = d = 0.0
         if ex * ex + ey * ey + ez * ez <= reach2:
             scratch[0], scratch[1], scratch[2] = qrot_inv(tw, tx, ty, tz, ex, ey, ez)
-            tri, u, v, w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, pnormal,
-                                           grid_origin, grid_cell, grid_dims, grid_base,
-                                           grid_start, grid_tris)
+            tri, _s, u, v, w, d = closest_triangle(t, scratch, scratch, reach, verts, tris,
+                                                   tnormal, grid_origin, grid_cell, grid_dims,
+                                                   grid_base, grid_start, grid_tris)
+        if tri >= 0 and d > 0.0:
+            va = verts[tris[tri, 0]]
+            vb = verts[tris[tri, 1]]
+            vc = verts[tris[tri, 2]]
+            # inside: (point - closest point) against the feature's pseudo-normal
+            fnx, fny, fnz = feature_normal(tri, u, v, w, pnormal)
+            if ((scratch[0] - (u * va[0] + v * vb[0] + w * vc[0])) * fnx
+                    + (scratch[1] - (u * va[1] + v * vb[1] + w * vc[1])) * fny
+                    + (scratch[2] - (u * va[2] + v * vb[2] + w * vc[2])) * fnz) >= 0.0:
+                tri = -1
         if tri < 0 or d <= 0.0:
             if friction:
                 ft[i, t, 0] = 0.0
