@@ -814,7 +814,7 @@ def build(scene: Scene) -> System:
     acc = np.zeros(ACC_SIZE)
     tables = Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity)
     if meshmesh_needed:
-        touching, depth = initial_overlap(bodies, tables)
+        touching, depth = initial_overlap(bodies)
         if depth > MAX_OVERLAP_RATIO:
             raise SceneError.single("bodies", body_names, (
                 f"two mesh bodies start interpenetrating ({depth:.3g} x the contact point "

@@ -47,7 +47,7 @@ import numpy as np
 from numba import njit
 
 from .bodies import FIXED, KINEMATIC
-from .body_contacts import closest_triangle, feature_normal
+from .body_contacts import closest_triangle, deep_closest, feature_normal
 from .contact_law import contact_force, normal_stiffness
 from .rotations import qrot, qrot_inv
 
@@ -140,18 +140,47 @@ def mesh_contact_stiffness(bodies, k: int) -> float:
     return total
 
 
-def initial_overlap(bodies, tables) -> tuple[int, float]:
-    """(contacts, max depth / pair length) of the mesh-mesh contacts in the built state,
-    from the step loop's own kernel run on scratch force arrays (nothing is changed)."""
+def initial_overlap(bodies) -> tuple[int, float]:
+    """(points inside another body, max depth / pair length) of the mesh-mesh pairs in the
+    built state, by the exact inside test at any depth (``body_contacts.deep_closest``): the
+    step loop only looks within the pair length of a surface, so a body built wholly inside
+    another would pass unseen there."""
     bd = bodies
-    stats = np.zeros(5)
-    mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r, bd.material,
-                       bd.point_start, bd.points, bd.mesh_kn, bd.mesh_len, bd.verts, bd.tris,
-                       bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell, bd.grid_dims,
-                       bd.grid_base, bd.grid_start, bd.grid_tris, tables.mu, tables.kt,
-                       tables.zeta, bd.ft_mesh.copy(), 0, np.zeros(3), np.zeros_like(bd.f),
-                       np.zeros_like(bd.tq), stats, 1.0)
-    return int(stats[0]), float(stats[3])
+    count = 0
+    worst = 0.0
+    for a in range(bd.pos.shape[0]):
+        for b in range(bd.pos.shape[0]):
+            if a != b and bd.mesh_kn[a, b] > 0.0:
+                n, depth = _deepest_points(a, b, bd.pos, bd.q, bd.point_start, bd.points,
+                                           bd.verts, bd.tris, bd.tnormal, bd.pnormal,
+                                           bd.grid_origin, bd.grid_cell, bd.grid_dims,
+                                           bd.grid_base, bd.grid_start, bd.grid_tris,
+                                           np.zeros(3))
+                count += n
+                worst = max(worst, depth / bd.mesh_len[a, b])
+    return count, worst
+
+
+@njit(cache=True)
+def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, pnormal,
+                    grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris,
+                    scratch):
+    """(how many of body s's contact points lie inside body t, the deepest one's depth)."""
+    n = 0
+    deepest = 0.0
+    for i in range(point_start[s], point_start[s + 1]):
+        rx, ry, rz = qrot(bq[s, 0], bq[s, 1], bq[s, 2], bq[s, 3], points[i, 0], points[i, 1],
+                          points[i, 2])
+        scratch[0], scratch[1], scratch[2] = qrot_inv(
+            bq[t, 0], bq[t, 1], bq[t, 2], bq[t, 3], bpos[s, 0] + rx - bpos[t, 0],
+            bpos[s, 1] + ry - bpos[t, 1], bpos[s, 2] + rz - bpos[t, 2])
+        tri, _u, _v, _w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, pnormal,
+                                          grid_origin, grid_cell, grid_dims, grid_base,
+                                          grid_start, grid_tris)
+        if tri >= 0 and d > 0.0:
+            n += 1
+            deepest = max(deepest, d)
+    return n, deepest
 
 
 HIT_SIZE = 11  # a touching point: index, depth, normal (3), arms from both centres (3 + 3)

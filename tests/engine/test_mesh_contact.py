@@ -386,3 +386,14 @@ def test_sampled_face_resting_on_a_face_is_stable_at_the_automatic_dt():
     assert np.linalg.norm(bd.v[1]) < 1e-6
     m = 7800.0 * small ** 3
     assert bd.f[1] == pytest.approx([0.0, 0.0, m * 9.81], abs=1e-3 * m * 9.81)
+
+
+def test_a_body_built_wholly_inside_another_is_refused():
+    # no point within reach of a surface: only the exact inside test at any depth sees it
+    scene = engine.parse_scene({
+        "materials": {"m": STIFF}, "contact_pairs": ELASTIC,
+        "bodies": [_box("big", 0.5, (0.0, 0.0, 0.0), motion="fixed"),
+                   _box("small", 0.05, (0.01, 0.02, 0.0))],
+        "run": {"duration": 0.01, "record_interval": 0.01}})
+    with pytest.raises(engine.SceneError, match="interpenetrating"):
+        engine.build(scene)
