@@ -19,6 +19,7 @@ import math
 from numba import njit
 
 from .orbit import cw_drift_body
+from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot, qrot_inv
 
 FIXED = 0
@@ -27,7 +28,7 @@ HINGE = 2
 FREE = 3
 
 
-@njit(cache=True)
+@item_kernel
 def _free_rotate(q, L, Ip, k, h):
     """Torque-free rotation of body k over time h; q and the world momentum L[k] in place."""
     pw, px, py, pz = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
@@ -80,7 +81,7 @@ def _omega_from_L(q, L, Ip, w, k, frame_rate):
         w[k, 2] -= frame_rate
 
 
-@njit(cache=True)
+@item_kernel
 def kinematic_state(k, time, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor,
                     pos, v, q, w):
     """Set pose and velocity of kinematic body k at ``time``. Returns True once the profile
@@ -139,7 +140,7 @@ def kinematic_state(k, time, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor
     return ended
 
 
-@njit(cache=True)
+@item_kernel
 def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
                      hinge_axis, hinge_point, hinge_inertia, hinge_k1, hinge_k2, acc,
                      orbit_n=0.0):
@@ -187,7 +188,7 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
             v[k, 2] = om * (ax * ry - ay * rx)
 
 
-@njit(cache=True)
+@item_kernel
 def bodies_drift(dt, time_new, motion, pos, q, v, w, L, Ip, hinge_axis, hinge_point,
                  after_free, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor, orbit_n=0.0):
     """Advance body poses by dt (positions of free/hinge bodies; kinematic bodies are set to

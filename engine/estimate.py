@@ -26,10 +26,11 @@ from .spec import Scene
 BYTES_PER_NODE = 2_000
 BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
 BYTES_FIXED = 64 * 2**20   # the engine, numba and the interpreter
-# recorded bytes per node and frame of each per-node channel (float64 3-vectors, a
-# quaternion, a scalar); the other channels are per brush or body and small
-_CHANNEL_NODE_BYTES = {"nodes": 3 * 8 + 4 * 8, "node_velocities": 6 * 8, "bending": 8,
-                       "contacts": 8}
+# recorded bytes per node and frame of each per-node channel, as docs/results.md lays them
+# out: nodes/positions (N, 3) f8; nodes/velocities and angular_velocities (N, 3) f8 each;
+# bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels
+# (contacts: three counts) are per frame, brush or body and small
+_CHANNEL_NODE_BYTES = {"nodes": 3 * 8, "node_velocities": 6 * 8, "bending": 4}
 MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
 
 
@@ -48,6 +49,8 @@ class Cost:
     duration: float
     steps: float
     frames: float
+    dt_bound: float         # the stability limit (stability_bound): a given dt above it fails
+    dt_limited_by: str      # what sets dt_bound
     node_steps: float
     memory_bytes: float
     result_bytes: float
@@ -142,15 +145,26 @@ def _bristle_omega2(scene: Scene, brush) -> float:
     return float(max(w2_t.max(), w2_r.max()))
 
 
+def stability_bound(scene: Scene) -> tuple[float, str]:
+    """The estimated stability limit of the timestep, ``2 / omega_max`` without
+    ``run.dt_safety`` (at most the build's ``dt_stable``), and what sets it; ``inf`` when
+    nothing moves elastically. Whatever ``run.dt`` is: a given dt above it is unstable."""
+    bounds = [(_bristle_omega2(scene, b), b.name) for b in scene.brushes]
+    omega2, name = max(bounds, default=(0.0, ""))
+    if not omega2 > 0 or not math.isfinite(omega2):
+        return math.inf, "nothing moves elastically"
+    return 2.0 / math.sqrt(omega2), f"the bristles of brush {name!r} (bonds and contacts)"
+
+
 def estimate_dt(scene: Scene) -> float:
     """The automatic timestep the build would choose, estimated from one bristle per brush
     (at most the build's; ``run.dt`` when the scene gives it)."""
     if scene.run.dt is not None:
         return float(scene.run.dt)
-    omega2 = max([_bristle_omega2(scene, b) for b in scene.brushes], default=0.0)
-    if not omega2 > 0 or not math.isfinite(omega2):
+    bound, _ = stability_bound(scene)
+    if not math.isfinite(bound):
         return float(scene.run.record_interval)  # nothing moves elastically
-    return scene.run.dt_safety * 2.0 / math.sqrt(omega2)
+    return scene.run.dt_safety * bound
 
 
 def _ceil(x: float) -> float:
@@ -170,6 +184,7 @@ def estimate(scene: Scene, mesh_triangles=None) -> Cost:
     tris = [shape_triangles(body.shape, mesh_triangles) for body in scene.bodies]
     n_triangles = None if any(t is None for t in tris) else int(sum(tris))
     dt = estimate_dt(scene)
+    dt_bound, dt_limited_by = stability_bound(scene)
     duration = float(scene.run.duration)
     steps = _ceil(duration / dt) if dt > 0 else math.inf
     frames = _floor(duration / scene.run.record_interval) + 1
@@ -178,5 +193,6 @@ def estimate(scene: Scene, mesh_triangles=None) -> Cost:
     memory = BYTES_FIXED + n_nodes * BYTES_PER_NODE + (n_triangles or 0) * BYTES_PER_TRIANGLE
     return Cost(n_bristles=n_bristles, n_nodes=n_nodes, n_triangles=n_triangles, dt=dt,
                 dt_given=scene.run.dt is not None, duration=duration, steps=float(steps),
-                frames=float(frames), node_steps=float(n_nodes) * steps if n_nodes else 0.0,
+                frames=float(frames), dt_bound=dt_bound, dt_limited_by=dt_limited_by,
+                node_steps=float(n_nodes) * steps if n_nodes else 0.0,
                 memory_bytes=float(memory), result_bytes=result_bytes)

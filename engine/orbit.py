@@ -222,32 +222,50 @@ def orbit_body_forces(motion, pos, q, mass, Ip, f, tq, n, gravity_gradient):
             tq[k, 2] += 3.0 * n2 * d1
 
 
+def orbit_energy_terms(n: float, gravity_gradient: bool, node_mass, node_x, motion, mass,
+                       pos, R, Ip, L) -> np.ndarray:
+    """The orbital part of the Jacobi integral (J) of F states, from arrays: ``node_mass``
+    (N,) and ``node_x`` (F, N, 3) of the free nodes; per body ``motion`` (F, B) codes,
+    ``mass`` (B,), ``pos`` (F, B, 3), ``R`` (F, B, 3, 3) principal frame -> world, ``Ip``
+    (B, 3), ``L`` (F, B, 3) inertial angular momentum. Returns (F,). The terms: the tidal
+    potential of free nodes and free / hinge bodies, -m (3/2 n^2 x^2 - 1/2 n^2 z^2); the
+    frame term of a free body's rotational energy, -1/2 n L_z (with ``w`` relative to the
+    frame the engine's kinetic energy 1/2 w.L plus this is 1/2 w_rel.I w_rel - 1/2
+    Omega.I Omega plus a constant); the frame's centrifugal potential of a hinge body,
+    -1/2 n^2 I_zz; with ``gravity_gradient`` the potential n^2/2 (tr I - 3 I_xx)."""
+    FREE, HINGE = 3, 2  # engine.bodies' motion codes (bodies imports this module)
+    n2 = n * n
+    xs = np.asarray(node_x, float)
+    e = -np.einsum("n,fn->f", np.asarray(node_mass, float),
+                   1.5 * n2 * xs[..., 0] ** 2 - 0.5 * n2 * xs[..., 2] ** 2)
+    motion = np.asarray(motion)
+    free, hinge = motion == FREE, motion == HINGE
+    moving = free | hinge
+    pos = np.asarray(pos, float)
+    tidal = np.asarray(mass, float)[None, :] * (1.5 * n2 * pos[..., 0] ** 2
+                                                 - 0.5 * n2 * pos[..., 2] ** 2)
+    e -= np.where(moving, tidal, 0.0).sum(axis=1)
+    e -= np.where(free, 0.5 * n * np.asarray(L, float)[..., 2], 0.0).sum(axis=1)
+    # world inertia entries I_aa = sum_k R[a, k]^2 Ip[k]
+    Iw = np.einsum("fbak,bk->fba", np.asarray(R, float) ** 2, np.asarray(Ip, float))
+    e -= np.where(hinge, 0.5 * n2 * Iw[..., 2], 0.0).sum(axis=1)
+    if gravity_gradient:
+        gg = 0.5 * n2 * (np.asarray(Ip, float).sum(axis=1)[None, :] - 3.0 * Iw[..., 0])
+        e += np.where(moving, gg, 0.0).sum(axis=1)
+    return e
+
+
 def orbit_energy(system) -> float:
-    """The orbital part of the Jacobi integral of the current state (J): the tidal potential
-    of free nodes and free/hinge bodies, -m (3/2 n^2 x^2 - 1/2 n^2 z^2), the frame term of
-    the free bodies' rotational energy (-1/2 n L_z: with ``w`` relative to the frame the
-    engine's kinetic energy 1/2 w.L plus this is 1/2 w_rel.I w_rel - 1/2 Omega.I Omega plus a
-    constant), and the gravity-gradient potential when it is on."""
+    """The orbital part of the Jacobi integral of the current state (J):
+    :func:`orbit_energy_terms` of the live system."""
     n = float(system.mission.orbit[0])
     if n == 0.0:
         return 0.0
     from .rotations import quat_to_matrix
-    FREE, HINGE = 3, 2  # engine.bodies' motion codes (bodies imports this module)
     nd, bd = system.nodes, system.bodies
     free = nd.inv_mass > 0
-    n2 = n * n
-    xs = nd.x[free]
-    e = -float(np.sum(nd.mass[free] * (1.5 * n2 * xs[:, 0] ** 2 - 0.5 * n2 * xs[:, 2] ** 2)))
-    for k in range(bd.pos.shape[0]):
-        if bd.motion[k] in (FREE, HINGE):
-            p = bd.pos[k]
-            e -= float(bd.mass[k] * (1.5 * n2 * p[0] ** 2 - 0.5 * n2 * p[2] ** 2))
-            R = quat_to_matrix(bd.q[k])
-            Iw = R @ np.diag(bd.Ip[k]) @ R.T
-            if bd.motion[k] == FREE:
-                e -= 0.5 * n * float(bd.L[k, 2])
-            else:  # the frame's centrifugal potential of a hinge body's rotation
-                e -= 0.5 * n2 * float(Iw[2, 2])
-            if system.mission.orbit[1] != 0.0:
-                e += 0.5 * n2 * (float(np.trace(Iw)) - 3.0 * float(Iw[0, 0]))
-    return e
+    B = bd.pos.shape[0]
+    R = np.array([quat_to_matrix(bd.q[k]) for k in range(B)]).reshape(1, B, 3, 3)
+    return float(orbit_energy_terms(
+        n, system.mission.orbit[1] != 0.0, nd.mass[free], nd.x[free][None],
+        bd.motion[None], bd.mass, bd.pos[None], R, bd.Ip, bd.L[None])[0])

@@ -333,6 +333,8 @@ class ResultFile:
             gravity -= np.where(moving, body["mass"] * ((body["position"]
                                                          - body["initial_position"])
                                                         @ body["gravity"]), 0.0)
+        gravity = gravity + self._orbit_energy(
+            nodes, self._body_states(sel, "the gravity energy"), len(gravity))
         out["gravity"] = float(gravity[0]) if one else gravity
         out["total"] = out["kinetic"] + out["bond"] + out["contact"] + out["gravity"]
         return {key: out[key] for key in ENERGY_KEYS}
@@ -356,6 +358,17 @@ class ResultFile:
             own += _body_angular_momentum(body)
             total += np.where(body["free"][:, None], own, 0.0)
         return total[0] if one else total
+
+    def body_angular_momentum(self, name: str, frame=None) -> np.ndarray:
+        """Spin angular momentum of body ``name`` about its centre of mass (inertial, world
+        components; the engine's ``L``), kg m^2/s: (3,) for frame ``i``, (n_frames, 3) for
+        ``frame=None``. Needs channel group ``bodies``."""
+        sel, one = self._frames(frame)
+        names = list(self.json_attr("body_names", []))
+        if name not in names:
+            raise KeyError(f"{self.path} has no body {name!r}; bodies: {names}")
+        L = _body_angular_momentum(self._body_states(sel, "angular momentum")[names.index(name)])
+        return L[0] if one else L
 
     def linear_momentum(self, frame=None) -> np.ndarray:
         """Total linear momentum of free nodes and free bodies, kg m/s: (3,) for frame ``i``,
@@ -426,10 +439,46 @@ class ResultFile:
                         "hinge_inertia"):
                 body[key] = np.asarray(self.static(f"bodies/{name}/{key}"), float)
             body["gravity"] = np.asarray(self.static("gravity"), float)
+            body["frame_rate"] = self._frame_rate()
             body["free"] = code == motion_names.index("free")
             body["hinge"] = code == motion_names.index("hinge")
             out.append(body)
         return out
+
+
+    def _orbit_energy(self, nodes, bodies, n_frames: int) -> np.ndarray | float:
+        """The orbital part of the Jacobi integral (``engine.orbit.orbit_energy_terms``,
+        the same function as the live ``engine.energies``): 0 without an orbit."""
+        orbit = self.scene.environment.orbit
+        if orbit is None or orbit.n == 0.0:
+            return 0.0
+        from .orbit import orbit_energy_terms
+        if nodes is not None:
+            node_mass, node_x = nodes["mass"], nodes["position"]
+        else:
+            node_mass, node_x = np.zeros(0), np.zeros((n_frames, 0, 3))
+        if not bodies:
+            F = n_frames
+            return orbit_energy_terms(orbit.n, orbit.gravity_gradient, node_mass, node_x,
+                                      np.zeros((F, 0)), np.zeros(0), np.zeros((F, 0, 3)),
+                                      np.zeros((F, 0, 3, 3)), np.zeros((0, 3)),
+                                      np.zeros((F, 0, 3)))
+        stack = lambda key: np.stack([b[key] for b in bodies], axis=1)  # noqa: E731
+        motion = np.stack([np.where(b["free"], 3, np.where(b["hinge"], 2, 0))
+                           for b in bodies], axis=1)
+        R = np.stack([_rotation_matrices(b["orientation"]) for b in bodies], axis=1)
+        L = np.stack([_body_angular_momentum(b) for b in bodies], axis=1)
+        return orbit_energy_terms(orbit.n, orbit.gravity_gradient, node_mass, node_x, motion,
+                                  np.array([float(b["mass"]) for b in bodies]),
+                                  stack("position"), R,
+                                  np.stack([b["principal_inertia"] for b in bodies]), L)
+
+    def _frame_rate(self) -> np.ndarray:
+        """The world frame's rotation rate relative to inertial space, rad/s: n z_hat in the
+        Hill frame of a scene with an orbit (docs/mission.md), zero otherwise."""
+        orbit = self.scene.environment.orbit
+        n = orbit.n if orbit is not None else 0.0
+        return np.array([0.0, 0.0, n])
 
 
 def _rotation_matrices(q: np.ndarray) -> np.ndarray:
@@ -443,8 +492,11 @@ def _rotation_matrices(q: np.ndarray) -> np.ndarray:
 
 
 def _body_angular_momentum(body: dict) -> np.ndarray:
-    """World-frame spin angular momentum R diag(I_p) R^T w of a body, (F, 3): the engine
-    integrates this L and derives w from it, so this recovers it to round-off."""
+    """World-frame spin angular momentum R diag(I_p) R^T (w + Omega) of a body, (F, 3): the
+    engine integrates this L and derives w from it, so this recovers it to round-off. With
+    an orbit the recorded w is relative to the turning Hill frame and L is inertial
+    (``Omega = n z_hat``, docs/mission.md); without one Omega = 0."""
     R = _rotation_matrices(body["orientation"])
-    in_body = np.einsum("fji,fj->fi", R, body["angular_velocity"])
+    w_inertial = body["angular_velocity"] + body.get("frame_rate", np.zeros(3))
+    in_body = np.einsum("fji,fj->fi", R, w_inertial)
     return np.einsum("fij,fj->fi", R, body["principal_inertia"] * in_body)

@@ -17,6 +17,7 @@ import numpy as np
 
 from .bodies import FREE, HINGE
 from .build import System, grow_lists
+from .compile_clock import CompileClock
 from .errors import InstabilityError
 from .orbit import orbit_energy
 from .recorder import Recorder, state_channels, state_frame
@@ -254,7 +255,27 @@ def _frame(system: System, channels: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- failures
+def dt_cause(system: System) -> Optional[str]:
+    """When the scene's own ``run.dt`` exceeds the stability limit the build found
+    (``system.dt_stable``), any blow-up is the timestep's: the advice that says so (and
+    nothing else, which would send the user after tip randomness or contact stiffness)."""
+    given, bound = system.scene.run.dt, system.dt_stable
+    if given is None or not given > bound:
+        return None
+    return (f"The cause is the timestep: run.dt = {given:.3g} s is {given / bound:.3g} x the "
+            f"stability limit {bound:.3g} s of this scene; remove run.dt (automatic dt = "
+            f"{system.scene.run.dt_safety:g} x the limit) or set it below {bound:.3g} s.")
+
+
 def _instability(system: System, code: int) -> InstabilityError:
+    exc = _instability_by_code(system, code)
+    cause = dt_cause(system)
+    if cause is None:
+        return exc
+    return InstabilityError(exc.quantity, exc.where, exc.time, cause, detail=exc.detail)
+
+
+def _instability_by_code(system: System, code: int) -> InstabilityError:
     e = system.err
     t = system.time
     sc = system.scene
@@ -383,14 +404,17 @@ def run(system: System, until: Optional[float] = None,
     chunk_cap = 256
     below_since = None  # the stop condition's quantity has been below its value since
     recorder = Recorder(output, sc.to_json(), channels, static, attrs)
+    # numba compiles (a cold cache: minutes) are timed apart and left out of the speed and
+    # the stage times (they made a first run's bristle_body stage 116 s against 29 s warm)
+    clock = CompileClock().__enter__()
     try:
         def record():
             nonlocal frames, record_wall, e_scale, balance0
-            r0 = _time.perf_counter()
+            r0, compiled0 = _time.perf_counter(), clock.seconds
             fr = _frame(system, channels)
             recorder.append(fr)
             frames += 1
-            record_wall += _time.perf_counter() - r0
+            record_wall += _time.perf_counter() - r0 - (clock.seconds - compiled0)
             if "energy/total" in fr and system.flags.track_energy:
                 bal = fr["energy/total"] + fr["energy/dissipated"] - fr["energy/external_work"]
                 e_scale = max(e_scale, *(abs(fr[f"energy/{k}"]) for k in (
@@ -402,10 +426,12 @@ def run(system: System, until: Optional[float] = None,
                     raise InstabilityError(
                         "energy balance", "the whole scene", system.time,
                         f"total + dissipated - external work drifted by {bal - balance0:.3g} J "
-                        f"(largest energy {e_scale:.3g} J): lower run.dt_safety (now "
-                        f"{sc.run.dt_safety:g}).")
+                        f"(largest energy {e_scale:.3g} J): " + (dt_cause(system) or
+                        f"lower run.dt_safety (now {sc.run.dt_safety:g})."))
             return fr
 
+        with clock.block():  # zero steps: compiles the step loop or loads it from the cache
+            _advance(system, 0)
         if system.steps == 0 or total_steps == 0:
             if system.flags.track_energy and system.bonds.i.shape[0]:
                 _refresh_forces(system)
@@ -448,26 +474,30 @@ def run(system: System, until: Optional[float] = None,
             if on_progress is not None and (now - last_progress >= progress_interval
                                             or done == total_steps):
                 last_progress = now
-                on_progress(_progress(system, until, done, total_steps, now - wall0))
+                on_progress(_progress(system, until, done, total_steps,
+                                      now - wall0 - clock.seconds))
     except InstabilityError as exc:
         status = "failed"
         error = exc
     except BaseException as exc:  # keep the file consistent whatever happened
+        clock.__exit__()
         summary = _summary(system, status="failed", wall=_time.perf_counter() - wall0,
                            steps=system.steps - steps0, stage_time0=stage_time0,
-                           timed0=timed0, record_wall=record_wall, frames=frames)
+                           timed0=timed0, record_wall=record_wall, frames=frames,
+                           compile_wall=clock.seconds)
         recorder.close("failed", summary, {"message": f"{type(exc).__name__}: {exc}"})
         raise
+    clock.__exit__()
     wall = _time.perf_counter() - wall0
     summary = _summary(system, status=status, wall=wall, steps=system.steps - steps0,
                        stage_time0=stage_time0, timed0=timed0, record_wall=record_wall,
-                       frames=frames)
+                       frames=frames, compile_wall=clock.seconds)
     err_dict = error.as_dict() if error is not None else None
     if err_dict:
         summary["error"] = err_dict
     recorder.close(status, summary, err_dict)
     if on_progress is not None and status != "completed":
-        on_progress(_progress(system, until, done, total_steps, wall))
+        on_progress(_progress(system, until, done, total_steps, wall - clock.seconds))
     result = RunResult(status=status, summary=summary, path=output, error=err_dict,
                        frames=frames)
     if error is not None:
@@ -523,12 +553,14 @@ _STAGE_OF_SLOT = {"neighbour_list": "neighbour_list", "bonds": "bonds",
 
 
 def _summary(system: System, status: str, wall: float, steps: int, stage_time0, timed0,
-             record_wall: float, frames: int) -> dict:
+             record_wall: float, frames: int, compile_wall: float = 0.0) -> dict:
     spent = system.stage_time - stage_time0
     # the sampled stage times give the proportions; they are scaled to the measured wall
-    # time of the compiled loop (the sampling clock itself would inflate tiny steps)
+    # time of the compiled loop (the sampling clock itself would inflate tiny steps), which
+    # is the run's wall time less recording and less compiling
+    compute = max(wall - record_wall - compile_wall, 1e-12)
     total_sampled = float(spent.sum())
-    scale = max(wall - record_wall, 0.0) / total_sampled if total_sampled > 0 else 0.0
+    scale = compute / total_sampled if total_sampled > 0 else 0.0
     stage_wall = {}
     for slot, name in enumerate(STAGES):
         needed = _STAGE_OF_SLOT.get(name)
@@ -536,7 +568,6 @@ def _summary(system: System, status: str, wall: float, steps: int, stage_time0, 
             continue
         stage_wall[name] = float(spent[slot] * scale)
     stage_wall["recording"] = record_wall
-    compute = max(wall - record_wall, 1e-12)
     return {
         "status": status,
         "dt": system.dt,
@@ -545,6 +576,7 @@ def _summary(system: System, status: str, wall: float, steps: int, stage_time0, 
         "steps": int(steps),
         "time": system.time,
         "wall_s": wall,
+        "compile_s": compile_wall,  # in wall_s, not in the speed nor the stages
         "steps_per_s": steps / compute if steps else 0.0,
         "node_steps_per_s": steps * system.n_nodes / compute if steps else 0.0,
         "n_nodes": system.n_nodes,

@@ -24,6 +24,7 @@ from .mesh_contact import mesh_mesh_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
+from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot
 from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
                     ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
@@ -88,7 +89,7 @@ def nodes_kick(v, w, f, t, inv_mass, inv_inertia, dt):
                 w[n, a] += h * t[n, a] * ii
 
 
-@njit(cache=True)
+@item_kernel
 def roots_follow(x, v, q, w, root_node, root_body, local_pos, local_q, bpos, bq, bv, bw):
     """Roots mounted on a body move rigidly with it (fixed roots never move)."""
     for r in range(root_node.shape[0]):
@@ -111,7 +112,7 @@ def roots_follow(x, v, q, w, root_node, root_body, local_pos, local_q, bpos, bq,
         w[n, 2] = bw[k, 2]
 
 
-@njit(cache=True)
+@item_kernel
 def roots_to_bodies(x, f, t, root_node, root_body, bpos, bf, btq):
     """The forces on mounted roots act on the body that carries them."""
     for r in range(root_node.shape[0]):
@@ -130,7 +131,7 @@ def roots_to_bodies(x, f, t, root_node, root_body, bpos, bf, btq):
         btq[k, 2] += rx * f[n, 1] - ry * f[n, 0] + t[n, 2]
 
 
-@njit(cache=True)
+@item_kernel
 def add_gravity(f, mass, inv_mass, g):
     for n in range(f.shape[0]):
         if inv_mass[n] > 0.0:
@@ -139,7 +140,7 @@ def add_gravity(f, mass, inv_mass, g):
             f[n, 2] += mass[n] * g[2]
 
 
-@njit(cache=True)
+@item_kernel
 def load_amplitude(ld, k, time):
     """Piecewise-linear amplitude of load k (held outside its table), times the optional sine."""
     a = ld.start[k]
@@ -164,7 +165,7 @@ def load_amplitude(ld, k, time):
     return amp
 
 
-@njit(cache=True)
+@item_kernel
 def add_loads(ld, f, v, time, dt):
     """External loads on nodes; returns their work over this step (F . v dt)."""
     for k in range(ld.force.shape[0]):
@@ -184,32 +185,29 @@ def add_loads(ld, f, v, time, dt):
     return work
 
 
-@njit(cache=True)
+@item_kernel
 def local_damping(f, t, v, w, inv_mass, alpha, dt):
     """Cundall's non-viscous damping: each force component is reduced by alpha |F| against
     the velocity. Returns the energy it dissipated this step."""
+    # branch-free (sign of the velocity as a number), so the loop vectorises: the signs
+    # of a relaxing brush's velocities are random, and branches on them mispredicted
     diss = 0.0
     for n in range(f.shape[0]):
-        if inv_mass[n] == 0.0:
-            continue
+        free = 1.0 if inv_mass[n] != 0.0 else 0.0
         for a in range(3):
             fa = f[n, a]
             va = v[n, a]
-            if va > 0.0:
-                f[n, a] = fa - alpha * abs(fa)
-            elif va < 0.0:
-                f[n, a] = fa + alpha * abs(fa)
             ta = t[n, a]
             wa = w[n, a]
-            if wa > 0.0:
-                t[n, a] = ta - alpha * abs(ta)
-            elif wa < 0.0:
-                t[n, a] = ta + alpha * abs(ta)
-            diss += alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
+            sv = free * ((va > 0.0) - (va < 0.0))
+            sw = free * ((wa > 0.0) - (wa < 0.0))
+            f[n, a] = fa - sv * alpha * abs(fa)
+            t[n, a] = ta - sw * alpha * abs(ta)
+            diss += free * alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
     return diss
 
 
-@njit(cache=True)
+@item_kernel
 def predicted_displacement(nd, bd, dt):
     """Upper bound of how far any node and any body centre will be from where the
     neighbour lists were built, after the next drift."""
@@ -294,7 +292,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
     return OK
 
 
-@njit(cache=True)
+@item_kernel
 def check_state(nd, bd, fl, acc, err, dt, limits, time):
     """Instability checks; returns a failure code (err gets [index, value, limit])."""
     for n in range(nd.x.shape[0]):

@@ -288,8 +288,8 @@ def spin_cube(size_mm):
         f"the bristles' sag is left out (an assumption). Resolution: {SPIN_NODES} nodes per "
         f"bristle, duration 3 s (no stop condition: caught in the brush the cube rocks "
         f"through w = 0 many times before it settles), record interval 2 ms; channels "
-        f"bodies (the cube's angular_velocity[:, 1] is w(t)), root force, energy, "
-        f"contacts.")
+        f"nodes (for playback: the bristles move), bodies (the cube's "
+        f"angular_velocity[:, 1] is w(t)), root force, energy, contacts.")
     return {
         "schema_version": 1, "name": f"spin_cube_{size_mm}", "description": desc,
         "materials": {"silicone": SILICONE, "foam": FOAM},
@@ -307,7 +307,7 @@ def spin_cube(size_mm):
             "angular_velocity": [0.0, SPIN_OMEGA0, 0.0]}],
         "environment": {"gravity": [0.0, 0.0, 0.0]},
         "run": {"duration": 3.0, "record_interval": 0.002,
-                "channels": ["bodies", "root_force", "energy", "contacts"]},
+                "channels": ["nodes", "bodies", "root_force", "energy", "contacts"]},
     }
 
 
@@ -469,7 +469,8 @@ def impact_scene(fur: bool):
             f"touching the plate); the tests compare its peak magnitude with solid_plate's. "
             f"Resolution: {FUR['n_nodes']} nodes per bristle, duration {FUR_DURATION * 1e3:g}"
             f" ms (the sphere has bounced out of the fur by about 0.9 ms), record interval "
-            f"2 us; channels bodies, root force, energy, contacts.")
+            f"2 us; channels nodes (for playback: the wires move), bodies, root force, "
+            f"energy, contacts.")
     else:
         desc = (
             "Seed chapter 5 (5.3.2 'Space fur', fig. 5.1), the bare (solid) plate: the "
@@ -499,7 +500,7 @@ def impact_scene(fur: bool):
         "environment": {"gravity": [0.0, 0.0, 0.0]},
         "run": {"duration": FUR_DURATION if fur else 0.0002,
                 "record_interval": 2e-6 if fur else 1e-7,
-                "channels": (["bodies", "root_force", "energy", "contacts"] if fur
+                "channels": (["nodes", "bodies", "root_force", "energy", "contacts"] if fur
                              else ["bodies", "energy", "contacts"])},
     }
     if not fur:
@@ -572,13 +573,25 @@ def gripper():
     }
 
 
+def _detumble_presets() -> list[dict]:
+    """The mission presets of issue 15 (``detumble_presets.py``, beside this file)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("detumble_presets",
+                                                  HERE / "detumble_presets.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.all_detumble(SILICONE, PHI_SIL_SIL, seed_brush(), quat_axis_angle)
+
+
 def all_presets() -> dict[str, dict]:
     scenes = [rod_weight_release(), rod_weight_static(), rod_tip_impulse(),
               rod_root_impulse(),
               *(wedge_scene(a) for a in (30, 45, 60, 75)),
               *(spin_cube(s) for s in (20, 40, 60)),
               momentum_two_brushes(), momentum_spheres_cube(),
-              impact_scene(fur=True), impact_scene(fur=False), gripper()]
+              impact_scene(fur=True), impact_scene(fur=False), gripper(),
+              *_detumble_presets()]
     return {s["name"]: s for s in scenes}
 
 

@@ -89,7 +89,12 @@ def summary_table(summary: dict, result_path=None) -> str:
     if "steps" in summary:
         rows.append(("steps", f"{summary['steps']:,}"))
     if "wall_s" in summary:
-        rows.append(("wall time", _fmt_seconds(summary["wall_s"])))
+        wall = _fmt_seconds(summary["wall_s"])
+        compiled = summary.get("compile_s")
+        if isinstance(compiled, (int, float)) and compiled >= 0.5:
+            wall += (f"  (of which {_fmt_seconds(compiled)} compiling the engine: not in the "
+                     f"speed nor the stages)")
+        rows.append(("wall time", wall))
     if "node_steps_per_s" in summary:
         speed = f"{_fmt_rate(summary['node_steps_per_s'])} node-steps/s"
         if "steps_per_s" in summary:

@@ -119,6 +119,10 @@ def register(subparsers) -> None:
                      help="delete finished jobs and their files this many days after they "
                           "finished (default 0: keep everything; DELETE "
                           "/api/runs/{id}?purge=true deletes one)")
+    lim.add_argument("--max-storage-gb", type=float, default=0.0,
+                     help="most GiB of job files and meshes in the data folder; a submit "
+                          "that would go over it (by its estimated result) is refused with "
+                          "507 and health says degraded (default 0: no quota)")
     lim.add_argument("--min-free-mb", type=float, default=16.0,
                      help="free space the data folder must keep; below it submits are "
                           "refused with 507 and health says degraded (default 16)")
@@ -149,11 +153,12 @@ def limits_from_args(args):
     for name, scale in (("max_nodes", 1), ("max_steps", 1), ("max_node_steps", 1),
                         ("max_frames", 1), ("max_memory_mb", 2**20),
                         ("max_result_mb", 2**20), ("max_job_seconds", 1), ("max_queued", 1),
-                        ("max_study_runs", 1), ("keep_days", 1)):
+                        ("max_study_runs", 1), ("keep_days", 1),
+                        ("max_storage_gb", 2**30)):
         v = getattr(args, name)
         if not v >= 0:
             raise ValueError(f"--{name.replace('_', '-')} = {v}: must be >= 0 (0: no limit)")
-        field = name.replace("_mb", "_bytes")
+        field = name.replace("_mb", "_bytes").replace("_gb", "_bytes")
         values[field] = None if v == 0 else v * scale
     if args.min_free_mb < 0:
         raise ValueError(f"--min-free-mb = {args.min_free_mb}: must be >= 0")

@@ -16,6 +16,9 @@ import threading
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
+
+from . import ui_guides as ug
 from . import ui_scene as us
 from . import ui_view as uv
 from .panels.common import POLL_S, STUDIES_POLL_S
@@ -42,6 +45,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self.data_dir = Path(data_dir) if data_dir is not None else None
         self.lock = threading.RLock()
         self.scene: dict = us.scene_dict(scene)
+        self.loaded_scene: dict = us.scene_dict(scene)  # what has_edits compares with
         self.sel = us.Selection()
         self.errors: dict[str, list[str]] = {}
         self.mode = "design"          # design | live | playback
@@ -59,6 +63,8 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self._runs_md = ""
         self._last_poll = self._last_studies = 0.0
         self.view = uv.View(target)
+        self.guides = ug.Guides(target.scene)
+        self.design_extent = (np.full(3, -25.0), np.full(3, 25.0))   # mm, redraw_design
         self._build_gui()
         self.gizmo = None
         self.redraw_design()
@@ -72,6 +78,17 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
             return list(self.server.get_clients().values())
         return [self.server]
 
+    def _camera(self) -> Optional[dict]:
+        """The tab's camera as the browser last reported it (None: a shared session)."""
+        camera = getattr(self.server, "camera", None)
+        if camera is None:
+            return None
+        try:
+            return {"position": [float(c) for c in camera.position],
+                    "look_at": [float(c) for c in camera.look_at]}
+        except Exception:  # (no camera state received yet)
+            return None
+
     # ----------------------------------------------------------------- GUI
     def _build_gui(self) -> None:
         gui = self.server.gui
@@ -80,6 +97,10 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
         self.md_summary = gui.add_markdown("")
         self.bg_view = gui.add_button_group("show", ("design", "run"))
         self.bg_view.on_click(lambda e: self.show_view(e.target.value))
+        self.bt_fit = gui.add_button("Fit view", hint="aim the camera at the whole design")
+        self.bt_fit.on_click(self._on_fit_view)
+        self.cb_guides = gui.add_checkbox("axes and scale bar", True)
+        self.cb_guides.on_update(lambda e: self.guides.set_visible(e.target.value))
         tabs = gui.add_tab_group()
         self.tab_design = tabs.add_tab("Design")
         self.tab_run = tabs.add_tab("Run")
@@ -116,15 +137,24 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "mode": self.mode,
                 "scene_name": self.scene.get("name"),
                 "n_segments": int(self.view.n_instances if self.view.n_instances > 0 else 0),
+                "segments_mean_mm": self.view.mean_segment_position(),
                 "n_bristles": sum(int(b["rows"]) * int(b["columns"])
                                   for b in self.scene.get("brushes") or []),
                 "bodies": bodies,
+                "camera": self._camera(),
+                "guides": {"visible": self.guides.visible, "axes_mm": self.guides.axes_mm,
+                           "scale_bar_mm": self.guides.bar_mm,
+                           "extent_mm": [[float(c) for c in e] for e in self.design_extent]},
                 "frame": int(self.frame_index),
                 "n_frames": int(self.playback.n_frames) if self.playback else 0,
                 "playback_job": self.playback_job,
                 "plots": list(self.figures) if self.playback is not None else [],
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
+                "edited": self.has_edits(),
+                "brush": int(self.sel.brush),
+                "body": int(self.sel.body),
+                "warnings": {k: list(v) for k, v in self.warnings.items()},
                 "overlaps": [{"kind": o.kind, "body": o.body, "depth_m": o.depth,
                               "bristles": len(o.items), "message": str(o)}
                              for o in self.overlaps],

@@ -16,8 +16,12 @@ from __future__ import annotations
 
 import json
 import math
+from fnmatch import fnmatch
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
+
+from .panels.common import _fmt_s, _one_line
+from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
 #: int | text | bool. The defaults are small enough to finish in seconds to a minute.
@@ -40,7 +44,13 @@ FORMS: dict[str, list[tuple[str, str, Any, str]]] = {
                     ("dt_factor", "text", "", "dt factors (optional)")],
 }
 STUDY_NAMES = tuple(FORMS)
+#: the first choice of every scene dropdown: the session's design as it is now (stored, then
+#: named to the study as ``design:<id>``, see ``studio.studies.registry``)
+CURRENT_DESIGN = "(current design)"
 MAX_IMAGES = 6  # PNG plots shown for one study
+#: study -> its PNG plots an interactive chart (studio.study_charts) replaces in the tab
+CHARTED_PNGS = {"wedge": ("force_depth.png",), "spin": ("omega_*.png",),
+                "refinement": ("refinement.png",)}
 
 
 class FormError(ValueError):
@@ -99,13 +109,17 @@ def convergence_markdown(table) -> str:
             else format(x, fmt)
 
     head = f"**{table.quantity} [{table.unit}]** of `{table.scene_name}`"
-    rows = ["| level | n_nodes | dt [s] | quantity | error | wall [s] | status |",
+    # narrow columns for the side panel: dt in µs, the error in per cent, short numbers
+    rows = [f"| level | nodes | dt [µs] | {table.quantity} | error [%] | wall [s] | |",
             "|---:|---:|---:|---:|---:|---:|---|"]
     for r in table.rows:
+        err = r.get("error")
         rows.append(f"| {r['level']} | {'' if r.get('n_nodes') is None else r['n_nodes']} | "
-                    f"{'auto' if r.get('dt') is None else format(r['dt'], '.4g')} | "
-                    f"{num(r.get('quantity'), '.6g')} | {num(r.get('error'), '+.3e')} | "
-                    f"{num(r.get('wall_s'), '.2f')} | {r.get('status', '')} |")
+                    f"{'auto' if r.get('dt') is None else format(r['dt'] * 1e6, '.3g')} | "
+                    f"{num(r.get('quantity'), '.5g')} | "
+                    f"{num(None if err is None else 100 * err, '+.2g')} | "
+                    f"{num(r.get('wall_s'), '.1f')} | "
+                    f"{'ok' if r.get('status') == 'completed' else r.get('status', '')} |")
     ref = "none" if table.reference is None else f"{table.reference:.8g} {table.unit}"
     notes = [f"reference: {ref} ({table.reference_kind}: {table.reference_note})"]
     orders = ", ".join(num(o, ".3g") for o in table.observed_orders)
@@ -115,7 +129,7 @@ def convergence_markdown(table) -> str:
     for tol, row in (table.cheapest or {}).items():
         notes.append(f"cheapest within {100 * float(tol):g} %: " + (
             "none" if row is None else f"level {row['level']} in {row['wall_s']:.2f} s"))
-    return "\n\n".join([head, "\n".join(rows)] + notes)
+    return "\n\n".join([head, "\n".join(rows)] + ["- " + n for n in notes])
 
 
 def convergence_figure(table):
@@ -138,7 +152,10 @@ def convergence_figure(table):
                     textposition="top center", name=table.quantity)
     fig.update_layout(title=dict(text=f"{table.quantity}: error against wall time",
                                  font=dict(size=13)),
-                      xaxis=dict(type="log", title="wall time [s]"),
+                      # (room either side: the first and last levels' labels stay whole)
+                      xaxis=dict(type="log", title="wall time [s]", range=[
+                          math.log10(min(xs)) - 0.25, math.log10(max(xs)) + 0.25]
+                          if xs else None),
                       yaxis=dict(type="log", title="|relative error|"),
                       margin=dict(l=50, r=10, t=30, b=40), height=300, showlegend=False)
     return fig
@@ -162,10 +179,14 @@ class StudiesTab:
     """The Studies tab's widgets and behaviour (built inside ``tab``; ``poll`` is called by
     the studio's polling thread)."""
 
-    def __init__(self, gui, tab, jobs, preset_names: list[str], md_escape):
+    def __init__(self, gui, tab, jobs, preset_names: list[str], md_escape,
+                 current_design: Optional[Callable[[], tuple[str, str]]] = None):
         self.gui = gui
         self.jobs = jobs
         self.esc = md_escape
+        # () -> (scene reference, design name) of the session's design as it is now
+        self.current_design = current_design
+        self.charts: list = []
         self.active: Optional[str] = None     # the study started here and followed
         self.shown: Optional[str] = None      # the study whose results are shown
         self.shown_status: Optional[str] = None
@@ -175,6 +196,7 @@ class StudiesTab:
         self._list_md = ""
         self.fields: dict[str, dict[str, Any]] = {}
         presets = list(preset_names) or ["wedge_60"]
+        first = [CURRENT_DESIGN] if current_design is not None else []
         with tab:
             self.dd_study = gui.add_dropdown("study", STUDY_NAMES, initial_value="wedge")
             self.dd_study.on_update(lambda e: self._show_form())
@@ -182,7 +204,8 @@ class StudiesTab:
                 handles = {}
                 for name, kind, default, label in spec:
                     if kind == "preset":
-                        opts = tuple(presets if default in presets else [default] + presets)
+                        opts = tuple(first + (presets if default in presets
+                                              else [default] + presets))
                         h = gui.add_dropdown(label, opts, initial_value=default)
                     elif kind == "number":
                         h = gui.add_number(label, float(default))
@@ -222,10 +245,22 @@ class StudiesTab:
             for h in handles.values():
                 h.visible = s == study
 
-    def options(self) -> dict:
+    def options(self) -> tuple[dict, Optional[str]]:
+        """The form's options, and the name of the design they study when a scene field
+        is on the current design (stored now: the study sees it as it is at Start)."""
         study = self.dd_study.value
         values = {name: h.value for name, h in self.fields[study].items()}
-        return form_options(study, values, self.tx_extra.value)
+        design = None
+        for name, value in values.items():
+            if value == CURRENT_DESIGN:
+                if self.current_design is None:
+                    raise FormError("no design to study in this tab")
+                ref, design = self.current_design()
+                if ref is None:
+                    raise FormError("studying the current design needs the studio's data "
+                                    "folder")
+                values[name] = ref
+        return form_options(study, values, self.tx_extra.value), design
 
     def start(self) -> Optional[str]:
         """Submit the form's study; returns the job id (None if refused)."""
@@ -233,8 +268,9 @@ class StudiesTab:
 
         study = self.dd_study.value
         try:
-            options = self.options()
-            job_id = self.jobs.submit_study(study, options)
+            options, design = self.options()
+            name = f"{study} study of design {design!r}" if design else None
+            job_id = self.jobs.submit_study(study, options, name=name)
         except (FormError, StudyOptionError) as exc:
             self.last_error = str(exc)
             self.md_status.content = f"**Refused:** {self.esc(str(exc))}"
@@ -262,11 +298,13 @@ class StudiesTab:
     # ----------------------------------------------------------------- polling
     def poll(self) -> None:
         studies = self.jobs.list(limit=50, kind="study")
-        rows = ["| study | status | progress | message |", "|---|---|---|---|"]
+        rows = ["| study | status | progress | left | message |", "|---|---|---|---|---|"]
         for j in studies:
-            msg = j.error.splitlines()[0] if j.error else (j.message or "")
+            msg = _one_line(j.error or j.message)
+            eta = study_eta(j)
             rows.append(f"| `{j.id}` {self.esc(j.name)} | {j.status} | "
-                        f"{100 * (j.progress or 0):.0f} % | {self.esc(msg)[:120]} |")
+                        f"{100 * (j.progress or 0):.0f} % | "
+                        f"{'' if eta is None else _fmt_s(eta)} | {self.esc(msg)} |")
         md = "\n".join(rows) if studies else "No studies yet."
         if md != self._list_md:
             self._list_md = md
@@ -285,8 +323,11 @@ class StudiesTab:
         if info.status == "queued":
             self.md_status.content = f"Study `{job}` queued (waiting for a worker)."
         elif info.status == "running":
-            self.md_status.content = (f"Study `{job}` running: {self.esc(info.message or '')}"
-                                      f" ({len(info.files)} files so far)")
+            eta = study_eta(info)
+            self.md_status.content = (
+                f"Study `{job}` running: {100 * float(info.progress or 0):.0f} %" +
+                ("" if eta is None else f", about {_fmt_s(eta)} left") +
+                f" · {self.esc(info.message or '')} ({len(info.files)} files so far)")
         else:
             self.active = None
             self.bt_cancel.disabled = True
@@ -300,7 +341,7 @@ class StudiesTab:
         info = self.jobs.get(job_id)
         folder = self.jobs.study_dir(job_id)
         files = list(info.files)
-        self.shown, self.shown_status = job_id, info.status
+        self.shown, self.shown_status = job_id, None
         head = f"**{self.esc(info.name)}** (`{job_id}`, {info.status}"
         if info.summary.get("wall_s") is not None:
             head += f", {info.summary['wall_s']:.1f} s"
@@ -310,9 +351,9 @@ class StudiesTab:
         self.md_result.content = head
         self.dd_file.options = tuple(files) or ("(none)",)
         self.dd_file.disabled = self.bt_download.disabled = not files
-        for h in self.images:
+        for h in self.images + self.charts:
             h.remove()
-        self.images = []
+        self.images, self.charts = [], []
         if self.plot is not None:
             self.plot.remove()
             self.plot = None
@@ -329,7 +370,14 @@ class StudiesTab:
             except (OSError, ValueError, TypeError, KeyError) as exc:
                 self.md_table.content = f"cannot read the convergence table: {exc}"
                 self.md_table.visible = True
-        pngs = [f for f in files if f.lower().endswith(".png")][:MAX_IMAGES]
+        with self.results_folder:
+            for name, fig in study_charts(info.study, folder, files):
+                self.charts.append(self.gui.add_plotly(fig, aspect=1.4) if not isinstance(
+                    fig, str) else self.gui.add_markdown(self.esc(fig)))
+        # the PNGs the charts replace are left to the file list; the others are shown
+        charted = CHARTED_PNGS.get(info.study or "", ()) if self.charts else ()
+        pngs = [f for f in files if f.lower().endswith(".png")
+                and not any(fnmatch(Path(f).name, p) for p in charted)][:MAX_IMAGES]
         with self.results_folder:
             for name in pngs:
                 try:
@@ -337,6 +385,7 @@ class StudiesTab:
                                                           label=name, format="png"))
                 except (OSError, ValueError) as exc:
                     self.images.append(self.gui.add_markdown(f"{name}: cannot show ({exc})"))
+        self.shown_status = info.status  # (last: what a state reader sees is all drawn)
 
     def _on_download(self, event) -> None:
         if event.client is None or self.shown is None:
@@ -353,6 +402,7 @@ class StudiesTab:
         """What the tab shows (for /studio/state and the tests)."""
         return {"study": self.dd_study.value, "active": self.active, "shown": self.shown,
                 "shown_status": self.shown_status, "images": len(self.images),
+                "charts": len(self.charts),
                 "plot": self.plot is not None, "table": bool(self.md_table.visible),
                 "files": list(self.dd_file.options) if self.shown else [],
                 "error": self.last_error}

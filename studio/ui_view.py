@@ -291,6 +291,13 @@ class View:
             lod="off", cast_shadow=False, receive_shadow=False)
         self.n_instances = n
 
+    def mean_segment_position(self) -> Optional[list]:
+        """The mean of the drawn segments' centres (view units), None when none are drawn:
+        for tests and scripts, a number that moves when the drawn bristles bend."""
+        if self.bristles is None or self.n_instances <= 0:
+            return None
+        return [float(c) for c in np.asarray(self.bristles.batched_positions, float).mean(0)]
+
     def set_bristle_nodes(self, bristles: Bristles, colors=None) -> None:
         self.set_bristles(*segment_instances(bristles.positions, bristles.radius,
                                              bristles.bonds), colors)

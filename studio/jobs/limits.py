@@ -29,6 +29,7 @@ class Limits:
     max_queued: Optional[int] = 100                 # jobs waiting: then 429
     max_study_runs: Optional[int] = 200             # runs one study may plan
     keep_days: Optional[float] = None               # finished jobs older: purged
+    max_storage_bytes: Optional[float] = None       # job files + meshes: then 507
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

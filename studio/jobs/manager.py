@@ -24,6 +24,7 @@ from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
 from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
+from .quota import StorageQuota
 from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
                     storage_reason)
 from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
@@ -89,6 +90,8 @@ class JobManager:
         # the database connection and the worker table share one lock
         self._lock, self._changed = self._store.lock, self._store.changed
         self._meshes = MeshStore(self.meshes_dir, self._store, self.max_triangles)
+        self.quota = StorageQuota([self.runs_dir, self.meshes_dir],
+                                  self.limits.max_storage_bytes)
 
         self._ctx = mp.get_context("spawn")
         self._workers: list[WorkerHandle] = []
@@ -132,6 +135,7 @@ class JobManager:
         cost = engine.estimate(scene, mesh_triangles=self._meshes.triangles_of)
         check_cost(cost, self.limits)
         self._check_queue()
+        self.quota.admit(cost.result_bytes, "this run's result file (estimated)")
         if check_build:
             engine.build(scene)
         if name is None or not str(name).strip():
@@ -177,13 +181,15 @@ class JobManager:
         :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
-        typed, argv = make_options(study, options, scheduler=self.scheduler)
+        typed, argv = make_options(study, options, scheduler=self.scheduler,
+                                   designs_dir=self.data_dir / "designs")
         runs = planned_runs(typed)
         if self.limits.max_study_runs is not None and runs > self.limits.max_study_runs:
             raise LimitError("max_study_runs", runs, self.limits.max_study_runs,
                              f"the study plans up to {runs} runs; this server allows at most "
                              f"{self.limits.max_study_runs} per study (--max-study-runs)", 422)
         self._check_queue()
+        self.quota.admit(0, "a study")
         resolved = options_to_dict(typed)
         if name is None or not str(name).strip():
             name = f"{study} study"
@@ -269,8 +275,12 @@ class JobManager:
         free = self.free_bytes()
         if free is not None and free < self.min_free_bytes and not storage:
             problems.append(f"storage: only {free / 2**20:.1f} MiB free in {self.data_dir}")
+        quota = self.quota.problem()
+        if quota:
+            problems.append(quota)
         return {"status": "degraded" if problems else "ok", "problems": problems,
-                "free_bytes": free}
+                "free_bytes": free, "used_bytes": self.quota.used_bytes(),
+                "quota_bytes": self.quota.max_bytes}
 
     def _storage_failed(self, reason: str) -> None:
         with self._lock:
@@ -469,7 +479,9 @@ class JobManager:
 
     # ------------------------------------------------------------------ meshes
     def add_mesh(self, data: bytes, filename: str) -> dict:
-        """Store an uploaded STL/OBJ/PLY mesh (:meth:`MeshStore.add_mesh`)."""
+        """Store an uploaded STL/OBJ/PLY mesh (:meth:`MeshStore.add_mesh`); over the storage
+        quota: :class:`StorageError`."""
+        self.quota.admit(len(data), "the mesh")
         return self._meshes.add_mesh(data, filename)
 
     def list_meshes(self) -> list[dict]:
@@ -641,7 +653,8 @@ class JobManager:
         if resolved:
             data = json.loads(resolved)
         else:
-            data = options_to_dict(make_options(study, self.get(job_id).options)[0])
+            data = options_to_dict(make_options(study, self.get(job_id).options,
+                                                designs_dir=self.data_dir / "designs")[0])
         data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
         return data
 

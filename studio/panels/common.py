@@ -47,3 +47,13 @@ def _safe_name(name: str) -> str:
     keep = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(name)).strip("._")
     return keep or "scene"
 
+
+RUN_ROW_CHARS = 40        # a message in a Runs/Studies table row: at most three short lines
+
+
+def _one_line(text, limit: int = RUN_ROW_CHARS) -> str:
+    """The first line of a message, cut to ``limit`` characters with "…" (a table row stays
+    one line tall; the full text is shown on demand)."""
+    line = str(text or "").strip().split("\n", 1)[0].strip()
+    more = len(line) > limit or "\n" in str(text or "").strip()
+    return (line[:limit].rstrip() + " …") if more else line

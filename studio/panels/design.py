@@ -6,18 +6,26 @@ from __future__ import annotations
 
 import copy
 import time
-from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
 
+from .. import ui_brushes as ub
+from .. import ui_guides as ug
 from .. import ui_scene as us
 from .. import ui_view as uv
-from ..presets import load_preset_or_file, preset_names
-from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape, _safe_name
+from .. import ui_warnings as uw
+from ..presets import preset_names
+from .brushes import BrushSelector
+from .design_files import DesignFiles
+from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape
 
 
-class DesignPanel:
+#: fields that can carry a scale warning (studio.ui_warnings)
+WARNED_FIELDS = ("bristle_length", "pitch_x", "pitch_y")
+
+
+class DesignPanel(BrushSelector, DesignFiles):
     """Design tab of the studio (mixin)."""
 
     def _build_design_gui(self, gui) -> None:
@@ -39,13 +47,15 @@ class DesignPanel:
                 self.md_preset = gui.add_markdown("", visible=False)
             self.tx_name = gui.add_text("design name", self.scene.get("name", "scene"))
             self.tx_name.on_update(self._on_name)
-            folders = {}
+            self.design_folders = folders = {}  # (the Run panel adds to "run")
             titles = {"brush": "Brush layout", "material": "Material", "body": "Body",
                       "motion": "Body motion", "environment": "Environment",
                       "run": "Run settings"}
             for folder in us.FOLDERS:
                 folders[folder] = gui.add_folder(titles[folder],
                                                  expand_by_default=folder == "brush")
+            with folders["brush"]:
+                self._build_brush_selector(gui)
             with folders["material"]:
                 self.dd_material = gui.add_dropdown(
                     "material preset", ("(keep)",) + tuple(us.MATERIAL_PRESETS),
@@ -62,10 +72,14 @@ class DesignPanel:
                 self.up_mesh.on_upload(self._on_upload_mesh)
                 self.md_body = gui.add_markdown("", visible=False)
                 self.md_overlap = gui.add_markdown("", visible=False)
+            self.warn_md: dict[str, Any] = {}
+            self.warnings: dict[str, list[str]] = {}
             for f in us.FIELDS:
                 with folders[f.folder]:
                     self.widgets[f.key] = self._add_widget(f)
                     self.error_md[f.key] = gui.add_markdown("", visible=False)
+                    if f.key in WARNED_FIELDS:
+                        self.warn_md[f.key] = gui.add_markdown("", visible=False)
 
     def _add_widget(self, f: us.UiField):
         gui = self.server.gui
@@ -84,8 +98,13 @@ class DesignPanel:
         elif f.kind == "checkbox":
             h = gui.add_checkbox(label, bool(value), hint=hint)
         elif f.kind == "int":
-            h = gui.add_number(label, int(value) if value is not None else 0, step=1,
-                               hint=hint)
+            # a float box taking decimals, showing whole numbers: viser casts what a client
+            # sends to the type of the box's value and the page rounds to the box's
+            # precision (0 for step 1), so a typed 2.5 would reach the design as 2 instead
+            # of being refused
+            h = gui.add_number(label, float(int(value)) if value is not None else 0.0,
+                               step=1, hint=hint)
+            h.precision = 6
         else:
             h = gui.add_number(label, float(value) if value is not None else 0.0,
                                step=f.step or 0.001, hint=hint)
@@ -93,23 +112,36 @@ class DesignPanel:
         return h
 
     def _on_connect(self, client) -> None:
-        """Point a new client's camera at the design."""
+        """Point a client's camera at the design (a new tab, a new design, Fit view)."""
         try:
-            b = uv.design_bristles(self.scene) if uv.n_design_segments(self.scene) < 200_000 \
-                else None
-            if b is not None and len(b.positions):
-                lo, hi = b.positions.min(0), b.positions.max(0)
-                c = 0.5 * (lo + hi) * uv.VIEW_SCALE
-                size = max(float(np.max(hi - lo)) * uv.VIEW_SCALE, 20.0)
-            else:
-                c, size = np.zeros(3), 50.0
+            lo, hi = self.design_extent
+            position, look_at = ug.camera_for(lo, hi)
             client.camera.up_direction = (0.0, 0.0, 1.0)
             # viser moves the look-at point along with the position: set it last
-            client.camera.position = tuple(float(x) for x in
-                                           c + np.array([1.2, -1.6, 0.9]) * size * 1.2)
-            client.camera.look_at = tuple(float(x) for x in c)
+            client.camera.position = tuple(float(x) for x in position)
+            client.camera.look_at = tuple(float(x) for x in look_at)
         except Exception:
             pass
+
+    def _on_fit_view(self, event) -> None:
+        for client in ([event.client] if event.client is not None else self._clients()):
+            self._on_connect(client)
+
+    def _set_extent(self, bristles, bodies) -> None:
+        """The box (mm) the design spans, bristles and bodies, at least 20 mm; the guides
+        follow it."""
+        pts = [bristles.positions] if bristles is not None and len(bristles.positions) else []
+        for b in bodies:
+            if len(b.vertices):
+                pts.append(b.vertices @ uv.quat_to_matrix(b.wxyz).T + b.position)
+        if pts:
+            allp = np.concatenate(pts) * uv.VIEW_SCALE
+            lo, hi = allp.min(0), allp.max(0)
+        else:
+            lo, hi = np.full(3, -25.0), np.full(3, 25.0)
+        pad = np.maximum(20.0 - (hi - lo), 0.0) / 2
+        self.design_extent = (lo - pad, hi + pad)
+        self.guides.update(*self.design_extent)
 
     # ----------------------------------------------------------------- design editing
     def _body_names(self) -> tuple[str, ...]:
@@ -130,17 +162,18 @@ class DesignPanel:
             except us.NotApplicable:
                 return False
             except ValueError as exc:
-                self._show_errors({key: [str(exc)]})
+                self._show_errors({key: [str(exc) + self._kept(f)]})
+                self._reset_box(f)
                 return False
             v = us.validate(new)
             if not v.ok:
                 named = us.fields_for_problems(v.problems, new, self.sel)
                 msgs = {k: [p.message for p in ps] for k, ps in named.items()}
                 mine = [p.message for p in v.problems]
-                msgs[key] = mine
                 msgs[key] = [f"{f.label} = {_fmt_value(value)} {f.unit}".rstrip() +
-                             " refused"] + mine
+                             " refused" + self._kept(f)] + mine
                 self._show_errors(msgs)
+                self._reset_box(f)
                 return False
             self.scene = us.scene_dict(v.scene)
             self._clear_errors()
@@ -150,11 +183,41 @@ class DesignPanel:
             self.refresh_fields(skip=key if from_client else None)
             return True
 
+    def _kept(self, f: us.UiField) -> str:
+        """' (the design keeps 17)': what the box goes back to after a refusal."""
+        try:
+            value = us.get_ui_value(f, self.scene, self.sel)
+        except us.NotApplicable:
+            return ""
+        return f" (the design keeps {_fmt_value(value)} {f.unit}".rstrip() + ")"
+
+    def _reset_box(self, f: us.UiField) -> None:
+        """Put the design's value back into a field whose new value was refused, so that
+        the box never shows a value the design does not have (the message under the field
+        says what was typed)."""
+        try:
+            value = us.get_ui_value(f, self.scene, self.sel)
+        except us.NotApplicable:
+            return
+        self.widgets[f.key].value = self._box_value(f, value)
+
+    @staticmethod
+    def _box_value(f: us.UiField, value):
+        """A UI value as its box holds it (whole numbers in float boxes, see _add_widget)."""
+        if f.kind == "int":
+            return float(int(value))
+        if f.kind in ("vector3", "rpy"):
+            return tuple(float(c) for c in value)
+        return value
+
     def set_design(self, scene) -> None:
         """Replace the whole design (a preset, an upload) by a validated engine.Scene."""
         with self.lock:
             self.scene = us.scene_dict(scene)
+            self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
             self.sel = us.Selection()
+            for md in (self.md_brush, self.md_body):  # notes on the previous design
+                self._set_note(md, "")
             self._clear_errors()
             self.set_mode("design", redraw=False)
             self.redraw_design()
@@ -191,6 +254,7 @@ class DesignPanel:
                 self.sel.body = min(self.sel.body, len(names) - 1)
                 self.dd_body.value = names[self.sel.body]
             self.bt_remove_body.disabled = not names
+            self._refresh_brush_selector()
             for f in us.FIELDS:
                 h = self.widgets[f.key]
                 ok = us.applicable(f, self.scene, self.sel)
@@ -205,12 +269,21 @@ class DesignPanel:
                 except us.NotApplicable:
                     h.visible = False
                     continue
-                if f.kind == "int":
-                    value = int(value)
-                elif f.kind in ("vector3", "rpy"):
-                    value = tuple(float(c) for c in value)
-                h.value = value
+                h.value = self._box_value(f, value)
+            self._update_warnings()
             self._update_summary()
+
+    def _update_warnings(self) -> None:
+        """Scale warnings (``studio.ui_warnings``) under the selected brush's fields, in
+        orange: accepted values that are probably a slip of the unit."""
+        self.warnings = uw.scale_warnings(self.scene, self.sel.brush)
+        for key, md in self.warn_md.items():
+            lines = self.warnings.get(key, [])
+            text = "\n\n".join(f"<span style='color:#b60'>⚠ {_md_escape(m)}</span>"
+                                for m in lines)
+            if md.content != text:
+                md.content = text
+            md.visible = bool(text) and self.widgets[key].visible
 
     def _update_summary(self) -> None:
         nb = sum(int(b["rows"]) * int(b["columns"]) for b in self.scene.get("brushes") or [])
@@ -222,7 +295,9 @@ class DesignPanel:
             f"{self.scene['run']['duration']:g} s to simulate.  \n{self._view_line()}" +
             ("  \n<span style='color:#d00'>⚠ the design starts overlapping: see Body</span>"
              if any(o.kind != "bristle-bristle" for o in getattr(self, "overlaps", ()))
-             else ""))
+             else "") +
+            "".join(f"  \n<span style='color:#b60'>⚠ {_md_escape(m)}</span>"
+                    for m in getattr(self, "warnings", {}).get("design", [])))
 
     def _view_line(self) -> str:
         """What the 3D view shows, in words (and how to switch)."""
@@ -250,10 +325,13 @@ class DesignPanel:
             bristles = uv.design_bristles(scene)
             bodies = uv.design_bodies(self.scene)
             self._update_overlaps(None if coarse else bristles, bodies)
+            self._set_extent(bristles, bodies)
             if self.mode != "design":
                 return
-            colors = uv.overlap_segment_colors(bristles, self.overlaps,
-                                               uv.design_bristle_first(scene))
+            first = uv.design_bristle_first(scene)
+            colors = uv.overlap_segment_colors(bristles, self.overlaps, first)
+            colors = ub.selected_brush_colors(scene, bristles.bonds, first, self.sel.brush,
+                                              colors, uv.BRISTLE_COLOR)
             self.view.set_bristle_nodes(bristles, colors)
             self.n_segments_drawn = bristles.n_segments
             self.view.set_bodies(bodies, highlight={o.body for o in self.overlaps if o.body})
@@ -403,103 +481,7 @@ class DesignPanel:
             self.redraw_design()
             self.refresh_fields()
 
-    def _on_upload_mesh(self, event) -> None:
-        up = event.target.value
-        with self.lock:
-            if not (self.scene.get("bodies") or []):
-                self.scene = us.scene_dict(us.validate(us.add_body(self.scene)).scene)
-            try:
-                if self.jobs is not None:
-                    info = self.jobs.add_mesh(up.content, up.name)
-                    path = self.jobs.mesh_path(info["id"])
-                else:
-                    folder = (self.data_dir or Path(".")) / "meshes"
-                    folder.mkdir(parents=True, exist_ok=True)
-                    path = folder / Path(up.name).name
-                    path.write_bytes(up.content)
-                mesh = uv.shape_mesh({"type": "mesh", "file": str(path)})
-            except Exception as exc:
-                self._set_note(self.md_body, f"mesh {up.name!r} refused: {exc}")
-                return
-            new = copy.deepcopy(self.scene)
-            body = new["bodies"][self.sel.body]
-            extent = float(np.max(mesh.extents)) if len(mesh.vertices) else 1.0
-            # a file in millimetres is the usual case for CAD exports: scale it so the body
-            # is at most 0.5 m across
-            scale = 1.0 if extent <= 0.5 else 1e-3
-            body["shape"] = {"type": "mesh", "file": str(path), "scale": scale}
-            mp = body.get("mass_properties")
-            if mp and not mesh.is_watertight:
-                body["mass_properties"] = None
-            v = us.validate(new)
-            if not v.ok:
-                self._set_note(self.md_body, "; ".join(p.message for p in v.problems))
-                return
-            self.scene = us.scene_dict(v.scene)
-            self._set_note(self.md_body, f"mesh {up.name!r}: {len(mesh.faces):,} triangles, "
-                           f"{'closed' if mesh.is_watertight else 'open (no density)'}, "
-                           f"scale {scale:g}")
-            self.set_mode("design", redraw=False)
-            self.redraw_design()
-            self.refresh_fields()
-
     @staticmethod
     def _set_note(md, text: str) -> None:
         md.content = _md_escape(text)
         md.visible = bool(text)
-
-    # ----------------------------------------------------------------- presets
-    def _on_load_preset(self, event) -> None:
-        self.load_preset(self.dd_preset.value)
-
-    def load_preset(self, name: str) -> None:
-        import engine
-
-        try:
-            scene = load_preset_or_file(name)
-        except engine.SceneError as exc:
-            self._set_note(self.md_preset, "; ".join(str(p) for p in exc.problems))
-            return
-        self.set_design(scene)
-        if name in self.dd_preset.options:
-            self.dd_preset.value = name
-        self._set_note(self.md_preset, f"loaded preset {name!r}")
-
-    def _on_upload_json(self, event) -> None:
-        import engine
-
-        up = event.target.value
-        try:
-            scene = engine.parse_scene(up.content)
-        except engine.SceneError as exc:
-            self._set_note(self.md_preset, f"{up.name} refused: " +
-                           "; ".join(str(p) for p in exc.problems))
-            return
-        self.set_design(scene)
-        self._set_note(self.md_preset, f"loaded {up.name}")
-
-    def design_json(self) -> str:
-        import engine
-
-        return engine.parse_scene(self.scene).to_json(indent=2) + "\n"
-
-    def _on_share(self, event) -> None:
-        """Store the design and show a link that opens it in a new session (the receiver
-        gets a copy: nobody else's design changes)."""
-        share = getattr(self, "share", None)
-        design_id = share(self.design_json()) if share is not None else None
-        if design_id is None:
-            self._set_note(self.md_preset, "sharing needs the studio's data folder")
-            return
-        self.shared_design_id = design_id
-        host = getattr(self, "link_host", None) or "127.0.0.1"
-        url = f"http://{host}/?websocket=ws://{host}/design/{design_id}"
-        self.md_preset.content = f"Link to this design: [{_md_escape(url)}]({url})"
-        self.md_preset.visible = True
-
-    def _on_download_json(self, event) -> None:
-        if event.client is None:
-            return
-        name = _safe_name(self.scene.get("name", "scene")) + ".json"
-        event.client.send_file_download(name, self.design_json().encode(),
-                                        save_immediately=True)

@@ -110,6 +110,24 @@ class ResultFrames:
             pass
 
 
+def color_note(res: Optional[ResultFrames], mode: str) -> str:
+    """Why the bristles of a loaded run cannot be moved or coloured as ``mode`` asks ('' when
+    they can): the channel the run did not record, and how to record it."""
+    if res is None or mode == "none":
+        return ""
+    how = "tick *record {}* in Design → Run settings and run again"
+    if not res.has_nodes:
+        if not res.brush_names:
+            return ""  # no bristles to draw
+        return ("This run recorded no node positions (channel `nodes` was off): its "
+                "bristles are drawn as designed, neither moving nor coloured; " +
+                how.format("nodes") + ".")
+    if mode == "bending moment" and not res.has_bending:
+        return ("This run recorded no bending moments (channel `bending` was off): colour by "
+                "*deflection* instead, or " + how.format("bending") + ".")
+    return ""
+
+
 FORCE_COLORS = ("#1f77b4", "#2ca02c", "#9467bd")  # F_x, F_y, F_z (none is the cursor's)
 CURSOR_COLOR = "#d62728"
 
@@ -155,6 +173,7 @@ class ResultsPanel:
             self.dd_color = gui.add_dropdown("colour bristles by", COLOR_MODES,
                                              initial_value="bending moment")
             self.dd_color.on_update(lambda e: self._show_frame(self.frame_index))
+            self.md_color = gui.add_markdown("", visible=False)
             self.bt_download_h5 = gui.add_button("Download result HDF5", disabled=True)
             self.bt_download_h5.on_click(self._on_download_h5)
             self.bt_design = gui.add_button("Back to the design view")
@@ -250,6 +269,12 @@ class ResultsPanel:
             if res is None or res.n_frames == 0:
                 return
             i = int(min(max(i, 0), res.n_frames - 1))
+            note = color_note(res, self.dd_color.value)
+            if note != getattr(self, "_color_note", ""):
+                self._color_note = note
+                self.md_color.content = f"<span style='color:#b60'>⚠ {note}</span>" \
+                    if note else ""
+                self.md_color.visible = bool(note)
             x = res.nodes(i)
             if x is not None and len(res.bonds):
                 colors = res.colors(self.dd_color.value, i, x)

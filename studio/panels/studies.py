@@ -2,6 +2,8 @@
 the shared job pool. A mixin of :class:`studio.app.Studio`."""
 from __future__ import annotations
 
+from typing import Optional
+
 from ..presets import preset_names
 from .common import _md_escape
 
@@ -9,13 +11,24 @@ from .common import _md_escape
 class StudiesPanel:
     """Studies tab of the studio (mixin)."""
 
+    def study_design(self) -> tuple[Optional[str], str]:
+        """The session's design as a study scene: stored (``Studio.share_design``, under
+        its content id) and named ``design:<id>``; None without a data folder."""
+        from ..studies.registry import DESIGN_PREFIX
+
+        with self.lock:
+            text, name = self.design_json(), str(self.scene.get("name", "scene"))
+        share = getattr(self, "share", None)
+        design_id = share(text) if share is not None else None
+        return (None if design_id is None else DESIGN_PREFIX + design_id), name
+
     def _build_studies_gui(self, gui) -> None:
         self.studies = None
         if self.jobs is not None:
             from ..ui_studies import StudiesTab
 
             self.studies = StudiesTab(gui, self.tab_studies, self.jobs, preset_names(),
-                                      _md_escape)
+                                      _md_escape, current_design=self.study_design)
         else:
             with self.tab_studies:
                 gui.add_markdown("No job pool: studies need the studio's workers.")

@@ -79,7 +79,9 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                                      "(send 'Authorization: Bearer <token>')",
                                 headers={"WWW-Authenticate": "Bearer"})
 
-    guarded = [Depends(auth)]
+    # the token's route dependency (and its security scheme in the OpenAPI document) only
+    # when there is a token: without one the document must not ask clients for one
+    guarded = [Depends(auth)] if token is not None else []
 
     from fastapi.responses import JSONResponse
 
@@ -89,6 +91,21 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
     async def storage_error(request, exc: StorageError):
         # 507 Insufficient Storage: the request was fine, the server's disk was not
         return JSONResponse(status_code=507, content={"detail": str(exc)})
+
+    from fastapi.exception_handlers import http_exception_handler
+    from starlette.exceptions import HTTPException as StarletteHTTPException
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request, exc: StarletteHTTPException):
+        if exc.status_code == 405:  # Allow: every method of the path (Starlette names one
+            # route's only: "Allow: POST" for /api/runs, which GET also serves)
+            from starlette.routing import Match
+
+            methods = [m for m in ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE")
+                       if any(r.matches({**request.scope, "method": m})[0] == Match.FULL
+                              for r in app.router.routes)]
+            exc.headers = {**(exc.headers or {}), "Allow": ", ".join(methods)}
+        return await http_exception_handler(request, exc)
 
     from ..jobs import LimitError
 

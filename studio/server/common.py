@@ -187,7 +187,7 @@ class RequestGuard:
                                         (b"connection", b"close")]})
                 await send({"type": "http.response.body", "body": body})
                 return
-        if method in ("POST", "PUT", "PATCH") and path in self.json_paths:
+        if method == "POST" and path in self.json_paths:  # (no other method has a body)
             ctype = headers.get("content-type", "").split(";", 1)[0].strip().lower()
             if ctype != "application/json" and not (ctype.startswith("application/")
                                                     and ctype.endswith("+json")):

@@ -6,6 +6,7 @@ and the service's liveness."""
 import json
 
 from ..jobs import JobManager, MeshError
+from .models import Health, MeshInfo, PresetInfo, error_responses
 
 
 def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
@@ -27,13 +28,15 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
             raise HTTPException(503, f"presets are not available: {exc}") from None
         return presets
 
-    @router.get("/api/presets", dependencies=guarded, tags=["presets"], summary="List presets")
+    @router.get("/api/presets", dependencies=guarded, tags=["presets"], summary="List presets",
+                response_model=list[PresetInfo], responses=error_responses(503))
     def list_presets():
         """The preset scenes (the seed's experiments and others): name, title, description."""
         return presets_module().list_presets()
 
     @router.get("/api/presets/{name}", dependencies=guarded, tags=["presets"],
-             summary="One preset's scene")
+             summary="One preset's scene", response_model=dict,
+             responses=error_responses(404, 503))
     def get_preset(name: str):
         """The preset's scene JSON, ready to edit and ``POST /api/runs``."""
         presets = presets_module()
@@ -48,9 +51,8 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
 
     # ------------------------------------------------------------------ meshes
     @router.post("/api/meshes", status_code=201, dependencies=guarded, tags=["meshes"],
-              summary="Upload a mesh (STL, OBJ or PLY)",
-              responses={413: {"description": "file too large or too many triangles"},
-                         422: {"description": "not a readable triangle mesh"}})
+              summary="Upload a mesh (STL, OBJ or PLY)", response_model=MeshInfo,
+              responses=error_responses(507))
     async def upload_mesh(file: UploadFile = File(..., description="an .stl, .obj or .ply "
                                                                     "file")):
         """Stores the mesh and returns its ``id`` and ``ref`` (``"mesh:<id>"``): put the
@@ -66,19 +68,22 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
         return JSONResponse(status_code=201, content=info)
 
     @router.get("/api/meshes", dependencies=guarded, tags=["meshes"],
-             summary="List uploaded meshes")
+             summary="List uploaded meshes", response_model=list[MeshInfo],
+             responses=error_responses())
     def list_meshes():
         return jobs.list_meshes()
 
 
     # ------------------------------------------------------------------ health
-    @router.get("/api/health", tags=["service"], summary="Liveness and load")
+    @router.get("/api/health", tags=["service"], summary="Liveness and load",
+                response_model=Health, responses=error_responses())
     def health():
         """Open without a token (for health checks): version, workers, jobs per status."""
         alive = jobs.workers_info()
         state = jobs.health()
         return {"status": state["status"], "problems": state["problems"],
-                "free_bytes": state["free_bytes"], "version": __version__, "workers": jobs.n_workers,
+                "free_bytes": state["free_bytes"], "used_bytes": state["used_bytes"],
+                "quota_bytes": state["quota_bytes"], "version": __version__, "workers": jobs.n_workers,
                 "threads_per_worker": jobs.threads_per_worker, "workers_alive": len(alive),
                 "worker_processes": [{k: w[k] for k in ("pid", "ready", "numba_threads")}
                                      for w in alive],

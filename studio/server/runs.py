@@ -3,10 +3,13 @@
 # which must be the classes imported inside the router functions, not their names)
 
 import json
-from typing import Optional
+from typing import Literal, Optional, Union
 
-from ..jobs import FINAL_STATUSES, STATUSES, JobManager, jsonable
+from ..jobs import FINAL_STATUSES, STATUSES, JobInfo, JobManager, jsonable
 from .common import json_body, non_finite_paths, not_found_job, scene_error
+from .models import ChannelList, PurgeAnswer, Series, error_responses
+
+Status = Literal[STATUSES]  # a query's status: one of these, else pydantic's 422
 
 MAX_SERIES_POINTS = 1_000_000                # numbers in one /series answer
 
@@ -25,13 +28,19 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         return not_found_job(jobs, job_id)
 
     @router.post("/api/runs", status_code=201, dependencies=guarded, tags=["runs"],
-              summary="Submit a scene to run",
-              responses={422: {"description": "invalid scene: every bad field, with its value "
-                                              "and what is allowed"},
-                         413: {"description": "request body too large"}},
+              summary="Submit a scene to run", response_model=JobInfo,
+              responses={200: {"model": JobInfo, "description": "a submit repeated with the "
+                                                                "same Idempotency-Key: the "
+                                                                "first one's run"},
+                         **error_responses(429, 507)},
               openapi_extra={"requestBody": {"required": True, "content": {
-                  "application/json": {"schema": {"type": "object",
-                                                  "description": "a scene (docs/scene.md)"}}}}})
+                  "application/json": {"schema": {
+                      "type": "object", "required": ["materials", "run"],
+                      "properties": {"materials": {"type": "object"}, "run": {"type": "object"}},
+                      "description": "a scene (docs/scene.md); what a JSON schema cannot say "
+                                     "(names that refer to each other, ranges that depend on "
+                                     "other fields) is checked at submit and named in the "
+                                     "422"}}}}})
     async def submit_run(request: Request,
                          name: Optional[str] = Query(None, max_length=200,
                                                      description="a label for the run "
@@ -74,15 +83,16 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         return JSONResponse(status_code=201, content=info,
                             headers={"Location": f"/api/runs/{job_id}"})
 
-    @router.get("/api/runs", dependencies=guarded, tags=["runs"], summary="List runs")
-    def list_runs(status: Optional[str] = Query(None, description=f"one of {STATUSES}"),
+    @router.get("/api/runs", dependencies=guarded, tags=["runs"], summary="List runs",
+                response_model=list[JobInfo], responses=error_responses())
+    def list_runs(status: Optional[Status] = Query(None, description="only runs with this "
+                                                                     "status"),
                   limit: Optional[int] = Query(None, ge=1, le=100_000)):
         """Every run, newest first (optionally only those with ``status``)."""
-        if status is not None and status not in STATUSES:
-            raise HTTPException(422, f"status = {status!r}: must be one of {list(STATUSES)}")
         return [i.to_dict() for i in jobs.list(status=status, limit=limit, kind="run")]
 
-    @router.get("/api/runs/{job_id}", dependencies=guarded, tags=["runs"], summary="One run")
+    @router.get("/api/runs/{job_id}", dependencies=guarded, tags=["runs"], summary="One run",
+                response_model=JobInfo, responses=error_responses(404))
     def get_run(job_id: str):
         """Status (queued, running, completed, stopped, failed, cancelled), progress (0..1),
         simulated time, steps/s, ETA, dt and what limits it, stage timings, the engine's
@@ -90,7 +100,8 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         return job_or_404(job_id).to_dict()
 
     @router.delete("/api/runs/{job_id}", dependencies=guarded, tags=["runs"],
-                summary="Cancel a run, or delete it and its files (purge=true)")
+                summary="Cancel a run, or delete it and its files (purge=true)",
+                   response_model=Union[JobInfo, PurgeAnswer], responses=error_responses(404, 409))
     def cancel_run(job_id: str, purge: bool = Query(False, description="also delete the "
                                                     "run and its files (result, scene)")):
         """A queued run is cancelled at once; a running one stops within a second and its
@@ -107,8 +118,11 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
 
     @router.get("/api/runs/{job_id}/result", dependencies=guarded, tags=["runs"],
              summary="Download the HDF5 result file",
-             responses={200: {"content": {"application/x-hdf5": {}}},
-                        409: {"description": "the run has not finished"}})
+             response_class=FileResponse,
+             responses={200: {"content": {"application/x-hdf5": {
+                 "schema": {"type": "string", "format": "binary"}}},
+                 "description": "the HDF5 result file (docs/results.md)"},
+                 **error_responses(404, 409)})
     def get_result(job_id: str):
         info = job_or_404(job_id)
         if info.status not in FINAL_STATUSES:
@@ -124,13 +138,20 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
                             filename=f"{safe or 'run'}-{job_id}.h5")
 
     @router.get("/api/runs/{job_id}/scene", dependencies=guarded, tags=["runs"],
-             summary="The scene a run runs")
+             summary="The scene a run runs", response_model=dict,
+             responses=error_responses(404))
     def get_run_scene(job_id: str):
-        job_or_404(job_id)
-        return json.loads(jobs.scene_path(job_id).read_text())
+        info = job_or_404(job_id)
+        try:
+            return json.loads(jobs.scene_path(job_id).read_text())
+        except FileNotFoundError:  # a study job: its scenes are presets, named in options
+            raise HTTPException(404, f"{info.kind} {job_id} has no scene file"
+                                + (" (a study: GET /api/studies/{id})"
+                                   if info.kind == "study" else "")) from None
 
     @router.get("/api/runs/{job_id}/series", dependencies=guarded, tags=["runs"],
-             summary="Recorded channels as JSON arrays")
+             summary="Recorded channels as JSON arrays",
+             response_model=Union[Series, ChannelList], responses=error_responses(404, 409))
     def get_series(job_id: str,
                    channel: Optional[list[str]] = Query(
                        None, description="channel name(s), e.g. brushes/brush/root_force; "
@@ -177,6 +198,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
                                              f"fewer channels or frames (start/stop/step)")
                 out["series"][c] = {"shape": list(values.shape[1:]),
                                     "values": jsonable(values)}
-            return out
+            # as it is (a million numbers through the response model would take seconds)
+            return JSONResponse(out)
 
     return router

@@ -3,11 +3,17 @@ their output files."""
 # (no ``from __future__ import annotations``: FastAPI reads the route functions' annotations,
 # which must be the classes imported inside the router functions, not their names)
 
-import json
-from typing import Optional
+from typing import Optional, Union
 
-from ..jobs import STATUSES, STUDIES, JobManager, StudyOptionError, jsonable, study_options
+from ..jobs import STUDIES, JobInfo, JobManager, StudyOptionError, jsonable, study_options
 from .common import json_body
+from .models import ErrorAnswer, PurgeAnswer, StudyFiles, StudyOption, error_responses
+from .runs import Status
+
+# a study file's media type by its extension
+MEDIA_TYPES = {".csv": "text/csv", ".png": "image/png", ".json": "application/json",
+               ".h5": "application/x-hdf5", ".txt": "text/plain"}
+DEFAULT_MEDIA = "application/octet-stream"
 
 
 def studies_router(jobs: JobManager, guarded: list):
@@ -36,18 +42,21 @@ def studies_router(jobs: JobManager, guarded: list):
                                                       "message": str(exc)})
 
     @router.post("/api/studies", status_code=201, dependencies=guarded, tags=["studies"],
-              summary="Submit a study",
-              responses={422: {"description": "unknown study, unknown or bad option, an "
-                                              "option the server sets itself (output, "
-                                              "scheduler, workers) or a file path where a "
-                                              "preset name belongs"}},
+              summary="Submit a study", response_model=JobInfo,
+              responses={**error_responses(429, 507), 422: {
+                  "model": ErrorAnswer,
+                  "description": "unknown study, unknown or bad option, an option the "
+                                 "server sets itself (output, scheduler, workers) or a file "
+                                 "path where a preset name belongs"}},
               openapi_extra={"requestBody": {"required": True, "content": {
-                  "application/json": {"schema": {"type": "object", "properties": {
+                  "application/json": {"schema": {"type": "object",
+                                                  "additionalProperties": False,
+                                                  "properties": {
                       "study": {"type": "string", "enum": list(STUDIES)},
-                      "options": {"type": "object", "description": "the study's command-line "
+                      "options": {"type": ["object", "null"], "description": "the study's command-line "
                                   "options by name, e.g. {\"preset\": \"wedge_60\", "
                                   "\"depth_mm\": 2, \"nodes\": 3} (GET /api/study-types)"},
-                      "name": {"type": "string"}}, "required": ["study"]}}}}})
+                      "name": {"type": ["string", "null"]}}, "required": ["study"]}}}}})
     async def submit_study(request: Request):
         """Queue a study (docs/studies.md) as a job; its files go to the job's own folder
         (``GET /api/studies/{id}/files``). Scenes are preset names only."""
@@ -66,6 +75,10 @@ def studies_router(jobs: JobManager, guarded: list):
             return option_error(StudyOptionError([(
                 "(body)", extra, "unknown key(s): the body holds 'study', 'options' (the "
                                  "study's options) and 'name'")]))
+        if not isinstance(data.get("options"), (dict, type(None))):
+            return option_error(StudyOptionError([(
+                "options", data["options"], "must be an object of the study's options "
+                                            "(GET /api/study-types), or null")]))
         name = data.get("name")
         if name is not None and not isinstance(name, str):
             return option_error(StudyOptionError([("name", name, "must be text")]))
@@ -78,30 +91,33 @@ def studies_router(jobs: JobManager, guarded: list):
         return JSONResponse(status_code=201, content=jobs.get(job_id).to_dict(),
                             headers={"Location": f"/api/studies/{job_id}"})
 
-    @router.get("/api/studies", dependencies=guarded, tags=["studies"], summary="List studies")
-    def list_studies(status: Optional[str] = Query(None, description=f"one of {STATUSES}"),
+    @router.get("/api/studies", dependencies=guarded, tags=["studies"], summary="List studies",
+                response_model=list[JobInfo], responses=error_responses())
+    def list_studies(status: Optional[Status] = Query(None, description="only studies with "
+                                                                        "this status"),
                      limit: Optional[int] = Query(None, ge=1, le=100_000)):
         """Every study job, newest first (scene runs are under ``/api/runs``)."""
-        if status is not None and status not in STATUSES:
-            raise HTTPException(422, f"status = {status!r}: must be one of {list(STATUSES)}")
         return [i.to_dict() for i in jobs.list(status=status, limit=limit, kind="study")]
 
     @router.get("/api/study-types", dependencies=guarded, tags=["studies"],
-             summary="The studies and their options")
+             summary="The studies and their options",
+             response_model=dict[str, list[StudyOption]], responses=error_responses())
     def study_types():
         """For each study, the options ``POST /api/studies`` accepts: name, kind (flag,
         value, list), help, default, required, choices, and whether it names a preset."""
         return {s: study_options(s) for s in STUDIES}
 
     @router.get("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
-             summary="One study")
+             summary="One study", response_model=JobInfo,
+             responses=error_responses(404))
     def get_study(job_id: str):
         """Status, progress (0..1) and ``message`` (the study's progress text), its
         ``files`` so far, ``summary`` (exit code, wall time, runs) and ``error``."""
         return study_or_404(job_id).to_dict()
 
     @router.delete("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
-                summary="Cancel a study")
+                summary="Cancel a study", response_model=Union[JobInfo, PurgeAnswer],
+                   responses=error_responses(404, 409))
     def cancel_study(job_id: str, purge: bool = Query(False, description="also delete the "
                                                       "study and all its files")):
         """Stops the study like Ctrl-C: its finished runs keep their files. With
@@ -115,7 +131,8 @@ def studies_router(jobs: JobManager, guarded: list):
         return jobs.cancel(job_id).to_dict()
 
     @router.get("/api/studies/{job_id}/files", dependencies=guarded, tags=["studies"],
-             summary="A study's output files")
+             summary="A study's output files", response_model=StudyFiles,
+             responses=error_responses(404))
     def list_study_files(job_id: str):
         """Names (paths relative to the study's folder, e.g. ``force_depth.csv``,
         ``runs/wedge_60.h5``) with their sizes."""
@@ -125,7 +142,12 @@ def studies_router(jobs: JobManager, guarded: list):
         return {"id": job_id, "status": info.status, "files": files}
 
     @router.get("/api/studies/{job_id}/files/{name:path}", dependencies=guarded,
-             tags=["studies"], summary="Download one output file of a study")
+             tags=["studies"], summary="Download one output file of a study",
+             response_class=FileResponse, responses={200: {
+                 "content": {m: {"schema": {"type": "string", "format": "binary"}}
+                             for m in sorted(set(MEDIA_TYPES.values()) | {DEFAULT_MEDIA})},
+                 "description": "the file (CSV, PNG, JSON, HDF5 or text)"},
+                 **error_responses(404)})
     def get_study_file(job_id: str, name: str):
         """Only names listed by ``GET /api/studies/{id}/files`` are served."""
         study_or_404(job_id)
@@ -134,9 +156,7 @@ def studies_router(jobs: JobManager, guarded: list):
         except KeyError:
             raise HTTPException(404, f"study {job_id} has no file {name!r} (GET "
                                      f"/api/studies/{job_id}/files lists them)") from None
-        media = {".csv": "text/csv", ".png": "image/png", ".json": "application/json",
-                 ".h5": "application/x-hdf5", ".txt": "text/plain"}.get(path.suffix.lower(),
-                                                                    "application/octet-stream")
+        media = MEDIA_TYPES.get(path.suffix.lower(), DEFAULT_MEDIA)
         return FileResponse(path, media_type=media, filename=path.name)
 
     return router

@@ -10,7 +10,8 @@ A study's command-line parser is the one declaration of its options (flags, type
 help): a dict of options is checked by that parser (:func:`study_argv`), so the job service
 accepts exactly what the command accepts, and then becomes the study's ``Options``
 (:func:`make_options`). Options the job layer sets itself (output folder, scheduler,
-workers, progress bars) are refused from clients, and scenes are preset names only.
+workers, progress bars) are refused from clients, and scenes are preset names (or designs
+the studio stored: ``design:<id>``) only.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from ..jsonable import jsonable_null as _json
-from . import convergence, refinement, rod, sensitivity, spin, wedge
+from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge
 
 
 @dataclass(frozen=True)
@@ -56,6 +57,7 @@ REGISTRY: dict[str, Study] = {
     "montecarlo": Study("montecarlo", sensitivity.MonteCarloOptions,
                         sensitivity.run_montecarlo, _montecarlo_parser),
     "rod": Study("rod", rod.Options, rod.run, rod.add_parser),
+    "detumble": Study("detumble", detumble.Options, detumble.run, detumble.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),
 }
@@ -144,10 +146,33 @@ def study_options(study: str) -> list[dict]:
     return out
 
 
-def _resolve_preset(option: str, value) -> str:
-    """A preset NAME -> its file (studio.presets.preset_path); anything else refused."""
+#: a scene option may name a design stored by the studio (``Studio.share_design``) as
+#: ``design:<id>``: the file ``<data>/designs/<id>.json`` of the server's own data folder
+DESIGN_PREFIX = "design:"
+
+
+def _resolve_design(option: str, value: str, designs_dir) -> str:
+    """``design:<id>`` -> the stored design's file; refused without a designs folder, for
+    an id that is not alphanumeric (no paths) or a design that was never stored."""
+    from pathlib import Path
+
+    design_id = value[len(DESIGN_PREFIX):]
+    if designs_dir is None:
+        raise StudyOptionError([(option, value, "stored designs are not available here")])
+    path = Path(designs_dir) / f"{design_id}.json"
+    if not design_id.isalnum() or not path.is_file():
+        raise StudyOptionError([(option, value, "no stored design with that id (the studio "
+                                                "stores one with 'Share this design')")])
+    return str(path)
+
+
+def _resolve_preset(option: str, value, designs_dir=None) -> str:
+    """A preset NAME -> its file (studio.presets.preset_path), ``design:<id>`` -> a stored
+    design's file in ``designs_dir``; anything else refused."""
     if not isinstance(value, str) or not value.strip():
         raise StudyOptionError([(option, value, "must be a preset name (GET /api/presets)")])
+    if value.startswith(DESIGN_PREFIX):
+        return _resolve_design(option, value, designs_dir)
     try:
         from ..presets import list_presets, preset_path
     except ImportError as exc:  # pragma: no cover (the presets are part of the project)
@@ -160,14 +185,15 @@ def _resolve_preset(option: str, value) -> str:
                                                 f"accepted); presets: {names}")]) from None
 
 
-def study_argv(study: str, options: Optional[dict]) -> list[str]:
+def study_argv(study: str, options: Optional[dict], designs_dir=None) -> list[str]:
     """The command-line arguments of ``study`` for ``options`` (keys: option names with
     ``_`` or ``-``, e.g. ``{"preset": "wedge_60", "depth_mm": 3, "nodes": 4}`` ->
     ``["--preset=.../wedge_60.json", "--depth-mm=3", "--nodes=4"]``), checked with the
     study's own parser. Flags take true/false, list options a list (or one value), other
     options a value (a list is joined with commas: ``"angles": [30, 60]`` -> ``30,60``).
     Output, scheduler and worker options are refused (the job layer sets them); scenes are
-    preset names only. Raises :class:`StudyOptionError` naming every bad option."""
+    preset names (or ``design:<id>``, a design stored in ``designs_dir``) only. Raises
+    :class:`StudyOptionError` naming every bad option."""
     parser = study_parser(study)
     if options is None:
         options = {}
@@ -176,6 +202,8 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
                                  "must be an object of option: value")])
     actions = {a.dest: a for a in parser._actions if a.dest not in ("help", "func")}
     allowed = sorted(d for d in actions if d not in SERVER_OPTIONS)
+    by_flag = {f: a for a in actions.values() for f in a.option_strings
+               if a.dest not in SERVER_OPTIONS}
     problems: list = []
     argv: list[str] = []
     positional: list[str] = []
@@ -184,12 +212,15 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
         if k in SERVER_OPTIONS:
             problems.append((str(key), value, f"not accepted: {SERVER_OPTIONS[k]}"))
             continue
-        a = actions.get(k)
+        # by its destination, or by its flag (``nodes`` is --nodes everywhere, though rod and
+        # spin keep the destination n_nodes of their older spelling)
+        a = actions.get(k) or by_flag.get("--" + k.replace("_", "-"))
         if a is None:
             problems.append((str(key), value, f"unknown option of study {study!r}; "
                                               f"options: {allowed}"))
             continue
-        flag = max(a.option_strings, key=len) if a.option_strings else None
+        flag = next((f for f in a.option_strings if f.startswith("--")),
+                    None) if a.option_strings else None
         try:
             if isinstance(a, argparse._StoreTrueAction):
                 if not isinstance(value, bool):
@@ -209,7 +240,7 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
                 if "\x00" in str(v) or "\n" in str(v):
                     raise StudyOptionError([(str(key), value, "bad characters")])
             if k in SCENE_OPTIONS:
-                values = [_resolve_preset(str(key), v) for v in values]
+                values = [_resolve_preset(str(key), v, designs_dir) for v in values]
             if not a.option_strings:  # a positional (convergence's scene)
                 if len(values) != 1:
                     raise StudyOptionError([(str(key), value, "takes one value")])
@@ -231,13 +262,14 @@ def study_argv(study: str, options: Optional[dict]) -> list[str]:
     return argv
 
 
-def make_options(study: str, options: Optional[dict], *, scheduler: Optional[str] = None):
+def make_options(study: str, options: Optional[dict], *, scheduler: Optional[str] = None,
+                 designs_dir=None):
     """``study``'s typed ``Options`` for a client's ``options`` dict (checked as
     :func:`study_argv` checks it), with the execution the job layer chooses: ``scheduler``,
     or one worker in the job's own process; no terminal progress bars. Returns
     ``(options, argv)``: the argv is what the same study is on the command line."""
     entry = get(study)
-    argv = study_argv(study, options)
+    argv = study_argv(study, options, designs_dir)
     args = study_parser(study).parse_args(argv + ["--output", "/nonexistent/job-folder"])
     opts = entry.options.from_args(args)
     execution = {"scheduler": scheduler, "workers": None if scheduler else 1,

@@ -35,7 +35,7 @@ import csv
 import json
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -529,6 +529,7 @@ class Options(ExecutionOptions):
     """``brush-studio study rod`` (``None``: the presets' value)."""
 
     cases: str = ",".join(CASES + ("response",))  # comma-separated subset
+    preset: list = field(default_factory=list)     # rod presets (instead of cases)
     n_nodes: Optional[int] = None                  # nodes per rod, excitation cases
     free_duration: Optional[float] = None          # free vibration after the excitation, s
     record_interval: Optional[float] = None        # s
@@ -542,6 +543,7 @@ class Options(ExecutionOptions):
 
 
 def add_parser(study_subparsers) -> None:
+    from .preset_option import add_preset_option
     from .runner import add_common_options
 
     p = study_subparsers.add_parser(
@@ -553,8 +555,10 @@ def add_parser(study_subparsers) -> None:
                     "the rod lying on a plate with friction (seed fig. 4.6).")
     p.add_argument("--cases", default=",".join(CASES + ("response",)),
                    help="comma-separated subset of: " + ", ".join(CASES + ("response",)))
+    add_preset_option(p, "rod", list(PRESETS.values()), "the excitation cases (--cases)")
     p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36)")
+                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36; "
+                        "--n-nodes is the older spelling, deprecated)")
     p.add_argument("--free-duration", type=float, default=None, metavar="S",
                    help="free vibration recorded after the excitation (default: the "
                         "presets', 4.5 s)")
@@ -593,18 +597,25 @@ def _cmd_rod(args) -> int:
 def _run_study(options: Options, out: Path) -> int:
     from .runner import check_common_options, failures_text, first_problem, run_study
 
+    from .preset_option import PresetChoiceError, chosen
+
     problem = check_common_options(options)
     cases = [c.strip() for c in options.cases.split(",") if c.strip()]
     bad = [c for c in cases if c not in CASES + ("response",)]
     if bad:
         problem = f"--cases: unknown {bad}; choose from {CASES + ('response',)}"
     try:
+        cases = chosen("rod", options.preset, {v: k for k, v in PRESETS.items()},
+                       options.cases, Options.cases, "--cases") or cases
+    except PresetChoiceError as exc:
+        problem = problem or str(exc)
+    try:
         freqs = (_floats(options.frequencies) if options.frequencies
                  else list(DEFAULT_RESPONSE_FREQUENCIES))
     except ValueError as exc:
         problem = f"--frequencies: {exc}"
         freqs = []
-    checks = [(options.n_nodes is None or options.n_nodes >= 3, "--n-nodes must be >= 3"),
+    checks = [(options.n_nodes is None or options.n_nodes >= 3, "--nodes must be >= 3"),
               (options.response_nodes >= 3, "--response-nodes must be >= 3"),
               (options.free_duration is None or options.free_duration > 0, "--free-duration must be > 0"),
               (options.record_interval is None or options.record_interval > 0,

@@ -38,7 +38,7 @@ import csv
 import json
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -514,6 +514,7 @@ class Options(ExecutionOptions):
     """``brush-studio study spin`` (``None``: the presets' value)."""
 
     cubes: str = "20,40,60"          # cube edges, mm
+    preset: list = field(default_factory=list)  # spin_cube_<edge> presets (instead of cubes)
     configs: str = "1,2,3,4,5,6"     # brush configurations
     n_nodes: Optional[int] = None    # nodes per bristle
     omega0: Optional[float] = None   # initial spin, rad/s
@@ -527,6 +528,7 @@ class Options(ExecutionOptions):
 
 
 def add_parser(study_subparsers) -> None:
+    from .preset_option import add_preset_option
     from .runner import add_common_options
 
     p = study_subparsers.add_parser(
@@ -537,10 +539,12 @@ def add_parser(study_subparsers) -> None:
                     "rest, and the effect of random bristle tips (fig. 4.41). Configurations: "
                     + "; ".join(config_label(c) for c in CONFIGS) + ".")
     p.add_argument("--cubes", default="20,40,60", help="cube edges, mm (default 20,40,60)")
+    add_preset_option(p, "spin", [f"spin_cube_{c}" for c in CUBES_MM], "the cubes (--cubes)")
     p.add_argument("--configs", default="1,2,3,4,5,6",
                    help="brush configurations (default all six)")
     p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the presets', 6)")
+                   metavar="N", help="nodes per bristle (default: the presets', 6; --n-nodes is the "
+                        "older spelling, deprecated)")
     p.add_argument("--omega0", type=float, default=None, metavar="RAD_PER_S",
                    help="initial spin (default: the presets', 10 rad/s)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
@@ -572,21 +576,24 @@ def _cmd_spin(args) -> int:
 
 
 def _run_study(options: Options, out: Path) -> int:
+    from .preset_option import chosen
     from .runner import check_common_options, failures_text, first_problem, run_study
 
     problem = check_common_options(options)
     try:
         cubes = _ints(options.cubes, "--cubes")
+        cubes = chosen("spin", options.preset, {f"spin_cube_{c}": c for c in CUBES_MM},
+                       options.cubes, Options.cubes, "--cubes") or cubes
         configs = _ints(options.configs, "--configs")
         grid = tuple(_ints(options.grid, "--grid")) if options.grid else None
-    except ValueError as exc:
+    except ValueError as exc:  # PresetChoiceError included
         problem = problem or str(exc)
         cubes, configs, grid = [], [], None
     checks = [
         (all(c in CUBES_MM for c in cubes) and cubes, f"--cubes: each one of {CUBES_MM}"),
         (all(c in CONFIGS for c in configs) and configs, "--configs: each one of 1-6"),
         (grid is None or (len(grid) == 2 and min(grid) >= 1), "--grid: two integers >= 1"),
-        (options.n_nodes is None or options.n_nodes >= 2, "--n-nodes must be >= 2"),
+        (options.n_nodes is None or options.n_nodes >= 2, "--nodes must be >= 2"),
         (options.duration is None or options.duration > 0, "--duration must be > 0"),
         (options.random_seeds >= 0, "--random-seeds must be >= 0"),
         (options.random_cube in CUBES_MM, f"--random-cube: one of {CUBES_MM}"),

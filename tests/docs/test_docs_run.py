@@ -27,6 +27,11 @@ right before a fence says more about it:
     ``BRUSH_DOCS_FAST=0`` to run the documented sizes).
 ``<!-- docs: in-checkout -->``
     run in the repository root instead of a temporary folder (the README's test command).
+``<!-- docs: server -->``
+    the block talks to a headless server at ``127.0.0.1:8000`` (curl, the Python client):
+    the test starts ``brush-studio serve --headless`` on a free port (one for the module,
+    started when a block first needs it, stopped at the end) and runs the block with that
+    address in place of ``127.0.0.1:8000``, which the block must contain.
 ``<!-- docs: output -->`` (before a ``text`` block)
     the output of the block before it: each non-empty line must appear, in order, in that
     block's stdout, ``...`` standing for any text (a shape, not the numbers).
@@ -36,6 +41,7 @@ output in the message.
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import shlex
@@ -213,8 +219,27 @@ def _kill_group(proc: subprocess.Popen) -> None:
         pass
 
 
-def _run_block(b: Block, cwd: Path, env: dict) -> None:
+SERVER_ADDRESS = "127.0.0.1:8000"  # the address the docs show for a local headless server
+
+
+@pytest.fixture(scope="module")
+def docs_server(tmp_path_factory):
+    """A headless server on a free port for the ``server`` blocks: the server tests'
+    ``ServerProcess`` (tests/server/conftest.py), so both start it the same way."""
+    spec = importlib.util.spec_from_file_location(
+        "_docs_server_fixtures", ROOT / "tests" / "server" / "conftest.py")
+    fixtures = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fixtures)
+    server = fixtures.ServerProcess(tmp_path_factory.mktemp("docs-server") / "data", workers=2)
+    yield server
+    server.stop()
+
+
+def _run_block(b: Block, cwd: Path, env: dict, server_url: "str | None" = None) -> None:
     code = _apply_replacements(b)
+    if b.marker("server"):
+        assert SERVER_ADDRESS in code, f"{b.id}: a server block names {SERVER_ADDRESS}"
+        code = code.replace(f"http://{SERVER_ADDRESS}", server_url)
     if RUN_LANGS[b.lang] == "bash":
         argv = ["bash", "-e", "-o", "pipefail", "-c", code]
     else:
@@ -246,12 +271,14 @@ SESSIONS = _sessions()
 
 
 @pytest.mark.parametrize("blocks", [s for _, s in SESSIONS], ids=[k for k, _ in SESSIONS])
-def test_documented_block_runs(blocks, tmp_path, shim_dir):
+def test_documented_block_runs(blocks, tmp_path, shim_dir, request):
     env = _env(shim_dir)
     (tmp_path / "static_presets").symlink_to(ROOT / "static_presets")
+    url = (request.getfixturevalue("docs_server").url
+           if any(b.marker("server") for b in blocks) else None)
     for b in blocks:
         cwd = ROOT if b.marker("in-checkout") else tmp_path
-        _run_block(b, cwd, env)
+        _run_block(b, cwd, env, url)
 
 
 # ----------------------------------------------------------------------------- markup
@@ -272,6 +299,13 @@ def test_output_shape_matching_catches_a_changed_output():
     and ``...`` stands for varying numbers."""
     assert check_output_shape("OK: 'x': ... nodes\nWrote:", "OK: 'x': 510 nodes\nWrote:") == []
     assert check_output_shape("Wrote:\nOK: ...", "OK: 1\nWrote:") == ["OK: ..."]
+
+
+def test_server_blocks_name_the_documented_address():
+    """A ``server`` block that no longer names 127.0.0.1:8000 would talk to nothing the test
+    controls: each one names it (and so is run against the test's server)."""
+    bad = [b.id for b in ALL_BLOCKS if b.marker("server") and SERVER_ADDRESS not in b.code]
+    assert not bad, f"server blocks without {SERVER_ADDRESS}: {bad}"
 
 
 def test_markers_are_parsed(tmp_path):

@@ -143,6 +143,12 @@ def clean(path: Path) -> None:
     shutil.rmtree(path, ignore_errors=True)
 
 
+def _loaded(state: dict, scene_name: str, rows: str) -> bool:
+    """Whether the session shows a freshly loaded scene ``scene_name`` (no edits yet)."""
+    return state["scene_name"] == scene_name and not state.get("edited") and \
+        str(state["scene"]["brushes"][0]["rows"]) == rows
+
+
 def open_preset(studio: StudioProcess, name: str, page=None) -> None:
     """Open a preset in the page's own session (each tab has its own design): choose it in
     the Presets dropdown and press Load preset, as a user would, then wait until the page
@@ -159,21 +165,34 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
     scene = presets.load_preset_or_file(name)
     rows = str(scene.brushes[0].rows)
     for attempt in range(3):
-        box = page.get_by_label("preset", exact=True)
+        box = page.get_by_label("preset", exact=True).first
         if box.input_value() != name:
             box.click(force=True)
-            page.get_by_role("option", name=name, exact=True).click(force=True,
-                                                                     timeout=10_000)
+            try:
+                page.get_by_role("option", name=name, exact=True).click(force=True,
+                                                                         timeout=10_000)
+            except Exception:  # (a busy page missed the click that opens the list)
+                if attempt == 2:
+                    raise
+                page.keyboard.press("Escape")
+                continue
             page.wait_for_timeout(300)
         click(page, "Load preset")
-        try:
-            studio.wait_state(lambda s: s["scene_name"] == scene.name and
-                              str(s["scene"]["brushes"][0]["rows"]) == rows, timeout=10,
-                              what=f"preset {name} loaded")
+        # a design with edits asks before they are discarded: confirm in its dialog
+        discard = page.get_by_role("button", name=f"Discard edits and load {name}",
+                                   exact=True)
+        deadline = time.monotonic() + 10
+        st = studio.state()
+        while not _loaded(st, scene.name, rows) and time.monotonic() < deadline:
+            if discard.count():
+                discard.evaluate("b => b.click()")
+            time.sleep(0.2)
+            st = studio.state()
+        if _loaded(st, scene.name, rows):
             break
-        except AssertionError:
-            if attempt == 2:
-                raise
+        if attempt == 2:
+            raise AssertionError(f"preset {name} not loaded; last state: "
+                                 f"{ {k: v for k, v in st.items() if k != 'scene'} }")
     deadline = time.monotonic() + 30
     while page.get_by_label("rows", exact=True).input_value() != rows:
         assert time.monotonic() < deadline, f"the page never showed {rows} rows"

@@ -26,3 +26,17 @@ def test_no_eta_while_compiling_and_none_from_the_compile(monkeypatch):
     bar(_report(2000))
     assert "1k steps/s" in bar.postfix and "ETA 8" in bar.postfix  # 8000 steps left
     bar.close()
+
+
+def test_the_summary_shows_the_compile_apart_from_the_speed():
+    from studio.cli import summary_table
+
+    summary = {"status": "completed", "wall_s": 130.0, "compile_s": 120.0, "steps": 10_000,
+               "steps_per_s": 1000.0, "node_steps_per_s": 4e4, "n_nodes": 40,
+               "stages": {"bonds": 6.0, "recording": 4.0}}
+    text = summary_table(summary)
+    assert "2 min 10 s  (of which 2 min 00 s compiling the engine" in text
+    # the shares are of the stages' own total (10 s), the compile is not among them
+    assert "60.0 %" in text and "40.0 %" in text
+    warm = summary_table(dict(summary, compile_s=0.001, wall_s=10.0))
+    assert "compiling" not in warm

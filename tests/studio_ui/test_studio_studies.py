@@ -75,7 +75,8 @@ def test_convergence_table_markdown_has_every_level():
     md = convergence_markdown(_table())
     lines = [ln for ln in md.splitlines() if ln.startswith("| ")]
     assert len(lines) == 1 + 3  # header + one row per level
-    assert "| 1 | 5 | 5e-06 | 0.99 | -1.000e-02 | 4.00 | completed |" in md
+    # one short line per level (readable in the side panel): dt in µs, the error in %
+    assert "| 1 | 5 | 5 | 0.99 | -1 | 4.0 | ok |" in md
     assert "| 2 | 9 | auto | – | – | – | failed |" in md
     assert "reference: 1 m (analytic: elastica)" in md
     assert "cheapest within 5 %: level 1 in 4.00 s" in md
@@ -103,3 +104,9 @@ def test_png_array_reads_a_plot(tmp_path):
     assert img.dtype == np.uint8 and img.shape == (300, 400, 3)
     small = png_array(tmp_path / "p.png", max_side=200)
     assert max(small.shape[:2]) == 200
+
+
+def test_convergence_figure_leaves_room_for_the_end_labels():
+    fig = convergence_figure(_table())
+    lo, hi = fig.layout.xaxis.range  # log10 of wall time: 1 s and 4 s with a quarter decade
+    assert lo == pytest.approx(-0.25) and hi == pytest.approx(math.log10(4.0) + 0.25)

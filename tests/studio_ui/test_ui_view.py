@@ -130,7 +130,8 @@ def test_app_edit_redraws_and_refuses(studio_app):
     assert not app.edit("n_nodes", 1)
     st = app.state()
     assert st["scene"]["brushes"][0]["n_nodes"] == 6
-    assert st["errors"]["n_nodes"][0] == "nodes per bristle = 1 refused"
+    assert st["errors"]["n_nodes"][0] == "nodes per bristle = 1 refused (the design keeps 6)"
+    assert app.widgets["n_nodes"].value == 6  # the box goes back to the design's value
     assert app.error_md["n_nodes"].visible
     assert "brushes.0.n_nodes = 1" in app.error_md["n_nodes"].content
     assert app.edit("n_nodes", 3)

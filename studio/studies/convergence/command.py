@@ -10,6 +10,7 @@ from ...console import print_scene_error
 from ...exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .quantities import ConvergenceError, QUANTITY_HELP, parse_quantity
 from .ladder import parse_factors, parse_ladder
+from .protocol_ladder import parse_protocol_ladder
 from .running import run_convergence
 
 
@@ -19,12 +20,15 @@ def _err(msg: str) -> None:
 
 @dataclass
 class Options:
-    """``brush-studio convergence``: ``scene`` (a scene file) run at a ladder of
-    resolutions (``ladder`` "n_nodes=3,5,9" and/or ``dt_factor`` "1,0.5"), ``quantity``
-    measured in each against ``reference``."""
+    """``brush-studio convergence``: ``scene`` (a scene file) or ``preset`` (a preset name or
+    scene file, as the studies' ``--preset``) run at a ladder of resolutions (``ladder``
+    "n_nodes=3,5,9" and/or ``dt_factor`` "1,0.5") or of the wedge's loading (``ladder``
+    "qs_increments=1,2,4"), ``quantity`` measured in each against ``reference``."""
 
-    scene: str
+    scene: Optional[str]
     quantity: str
+    preset: Optional[str] = None
+    nodes: Optional[int] = None      # nodes per bristle of every level (not with n_nodes=)
     ladder: Optional[str] = None
     dt_factor: Optional[str] = None
     reference: str = "auto"          # auto | analytic | richardson | finest
@@ -37,7 +41,8 @@ class Options:
     def from_args(cls, args) -> "Options":
         import dataclasses
 
-        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
+        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)
+                      if hasattr(args, f.name)})
 
     def to_dict(self) -> dict:
         import dataclasses
@@ -59,24 +64,36 @@ def _cmd_convergence(args) -> int:
 def _run_study(options: Options, out: Path) -> int:
     import engine
 
+    source = options.scene or options.preset
     try:
         q = parse_quantity(options.quantity)
-        n_nodes = parse_ladder(options.ladder) if options.ladder else None
+        protocol = parse_protocol_ladder(options.ladder) if options.ladder else None
+        n_nodes = parse_ladder(options.ladder) if options.ladder and not protocol else None
         factors = parse_factors(options.dt_factor) if options.dt_factor else None
-        if n_nodes is None and factors is None:
-            raise ConvergenceError("give --ladder n_nodes=... and/or --dt-factor ...")
-        scene = engine.load_scene(options.scene)
+        if n_nodes is None and factors is None and protocol is None:
+            raise ConvergenceError("give --ladder n_nodes=... and/or --dt-factor ..., or a "
+                                   "loading ladder --ladder qs_increments=...")
+        if (options.scene is None) == (options.preset is None):
+            raise ConvergenceError("give the scene once: a SCENE.json argument or --preset "
+                                   "NAME|FILE")
+        if options.nodes is not None and (n_nodes is not None or not 2 <= options.nodes <= 4096):
+            raise ConvergenceError(f"--nodes = {options.nodes}: " + (
+                "leave it out with an n_nodes ladder (each level sets its own)"
+                if n_nodes is not None else "must be in 2 .. 4096"))
+        scene = engine.load_scene(_scene_path(source))
+        if options.nodes is not None:
+            scene = _with_nodes(scene, options.nodes)
     except ConvergenceError as exc:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
     except engine.SceneError as exc:
-        print_scene_error(exc, f"invalid scene {options.scene}")
+        print_scene_error(exc, f"invalid scene {source}")
         return EXIT_BAD_INPUT
     try:
         table = run_convergence(scene, q, out, n_nodes=n_nodes, dt_factors=factors,
                                 reference=options.reference, serial=options.serial,
                                 scheduler=options.scheduler, workers=options.workers,
-                                progress=not options.quiet)
+                                progress=not options.quiet, protocol=protocol)
     except ConvergenceError as exc:
         _err(f"error: {exc}")
         return EXIT_BAD_INPUT
@@ -91,6 +108,31 @@ def _run_study(options: Options, out: Path) -> int:
           "convergence.png")
     return EXIT_OK if all(r["status"] in ("completed", "stopped") for r in table.rows) \
         else EXIT_FAILED
+
+
+def _scene_path(ref: str) -> Path:
+    """A scene file, or the file of the preset named ``ref`` (as the studies' ``--preset``)."""
+    path = Path(ref)
+    if path.exists():
+        return path
+    from studio.presets import preset_path
+
+    try:
+        return preset_path(ref)
+    except KeyError:
+        raise ConvergenceError(f"{ref}: no such scene file or preset") from None
+
+
+def _with_nodes(scene, n_nodes: int):
+    """``scene`` with every brush at ``n_nodes`` nodes per bristle."""
+    import json
+
+    import engine
+
+    data = json.loads(scene.to_json())
+    for brush in data.get("brushes", []):
+        brush["n_nodes"] = int(n_nodes)
+    return engine.parse_scene(data)
 
 
 def register(subparsers) -> None:
@@ -110,12 +152,24 @@ def register(subparsers) -> None:
                     "convergence.json and convergence.png (log-log error vs wall time).", 90),
         epilog=QUANTITY_HELP + "\n\nexample:\n  brush-studio convergence rod.json --quantity "
                "tip_deflection --ladder n_nodes=5,9,17 -o rod-convergence\n  "
-               "(rod.json: a static scene, e.g. static_presets/rod_weight_static.json)")
-    p.add_argument("scene", metavar="SCENE.json")
+               "(rod.json: a static scene, e.g. static_presets/rod_weight_static.json)\n  "
+               "brush-studio convergence --preset wedge_60 --quantity wedge_force@2mm "
+               "--ladder qs_increments=1,2,4 -o wedge-increments")
+    p.add_argument("scene", metavar="SCENE.json", nargs="?", default=None,
+                   help="the scene file (or give --preset)")
+    p.add_argument("--preset", metavar="SCENE", default=None,
+                   help="preset name or scene file, as the studies' --preset (instead of "
+                        "SCENE.json)")
     p.add_argument("--quantity", "-Q", required=True, metavar="NAME",
                    help="quantity of interest (below)")
     p.add_argument("--ladder", metavar="n_nodes=N1,N2,...",
-                   help="nodes per bristle of each level (every brush), increasing")
+                   help="nodes per bristle of each level (every brush), increasing; or the "
+                        "wedge's loading: qs_increments=N1,N2,... (increments per step, "
+                        "increasing) or qs_max_acceleration=A1,A2,... (m/s^2, decreasing), "
+                        "each level a wedge study cycle (quantity wedge_force@DEPTH)")
+    p.add_argument("--nodes", type=int, metavar="N", default=None,
+                   help="nodes per bristle of every level (default: the scene's; not with "
+                        "--ladder n_nodes=..., whose levels set their own)")
     p.add_argument("--dt-factor", metavar="F1,F2,...",
                    help="run.dt = factor x the level's automatic dt, decreasing; one value "
                         "applies to every level, several pair up with --ladder")

@@ -18,14 +18,17 @@ class Level:
     dt: Optional[float]
     run_id: str
     scene: dict
+    protocol: Optional[dict] = None   # a loading ladder's wedge protocol (protocol_ladder.py)
+    setting: Optional[tuple] = None   # its (name, value), e.g. ("qs_increments", 2)
 
 
 def parse_ladder(text: str) -> list[int]:
     """``"n_nodes=3,5,9"`` -> [3, 5, 9]."""
     key, sep, values = text.partition("=")
     if key.strip() != "n_nodes" or not sep:
-        raise ConvergenceError(f"--ladder {text!r}: expected n_nodes=N1,N2,... (the only "
-                               "ladder parameter is n_nodes)")
+        raise ConvergenceError(f"--ladder {text!r}: expected n_nodes=N1,N2,... (resolution), "
+                               "qs_increments=N1,N2,... or qs_max_acceleration=A1,A2,... "
+                               "(the wedge's loading)")
     out = [_parse_int(v.strip(), "n_nodes", 2) for v in values.split(",") if v.strip()]
     if not out:
         raise ConvergenceError(f"--ladder {text!r}: no values")
@@ -97,7 +100,14 @@ def make_levels(scene: dict, n_nodes: Optional[Sequence[int]],
 
 def level_resolution(levels: Sequence[Level]) -> tuple[list[float], str]:
     """The h of each level for the observed order: 1 / (n_nodes - 1) (relative segment
-    length) when n_nodes varies, else the dt factor."""
+    length) when n_nodes varies, else the dt factor; for a loading ladder, 1 / increments
+    per step or the move's a_m."""
+    if levels and levels[0].setting is not None:
+        key = levels[0].setting[0]
+        values = [float(lv.setting[1]) for lv in levels]
+        if key == "qs_increments":
+            return [1.0 / v for v in values], "increment / wedge step"
+        return values, f"{key} (m/s^2)"
     ns = [lv.n_nodes for lv in levels]
     if ns[0] is not None and len(set(ns)) > 1:
         return [1.0 / (n - 1) for n in ns], "segment length / bristle length"

@@ -63,6 +63,9 @@ def write_outputs(table: ConvergenceTable, out_dir, scene_json: str = "") -> Non
         g.attrs["richardson_order"] = (math.nan if table.richardson_order is None
                                        else table.richardson_order)
         g.attrs["resolution"] = table.resolution
+        if table.setting:  # a loading ladder: its setting's name and value per level
+            g.attrs["setting"] = table.setting
+            g.create_dataset("setting", data=col("setting"))
         g.attrs["analysis"] = json.dumps(data, allow_nan=False)
         g.attrs["scene"] = scene_json
     tmp.replace(out_dir / "convergence.h5")

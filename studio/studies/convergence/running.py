@@ -13,6 +13,8 @@ from .references import analytic_reference
 from .ladder import Level, make_levels
 from .table import ConvergenceTable, analyse
 from .outputs import write_outputs
+from .protocol_ladder import (curve_changes, measure_protocol_level, protocol_levels,
+                              run_protocol_ladder)
 
 
 def run_level(scene, h5_path: Path, params: dict) -> dict:
@@ -147,7 +149,8 @@ def tabulate(scene, quantity: Quantity | str, levels: Sequence[Level],
         value, message = None, rec.get("error") or summary.get("error") or ""
         if status in ("completed", "stopped"):
             try:
-                value = measure(rec["h5"], q)
+                value = measure(rec["h5"], q) if lv.protocol is None else \
+                    measure_protocol_level(rec["h5"], q)
             except ConvergenceError as exc:
                 message = str(exc)
         values.append(value)
@@ -172,10 +175,12 @@ def run_convergence(scene, quantity: Quantity | str, out_dir, *,
                     dt_factors: Optional[Sequence[float]] = None,
                     reference: str = "auto", serial: bool = False,
                     scheduler: Optional[str] = None, workers: Optional[int] = None,
-                    progress: bool = True, warm_up: bool = True) -> ConvergenceTable:
+                    progress: bool = True, warm_up: bool = True,
+                    protocol: Optional[tuple[str, Sequence]] = None) -> ConvergenceTable:
     """Run a ladder (:func:`run_ladder`), measure and analyse ``quantity``
     (:func:`tabulate`) and write the outputs into ``out_dir``; returns the table.
-    ``scene``: an ``engine.Scene``, a dict or JSON text."""
+    ``scene``: an ``engine.Scene``, a dict or JSON text. ``protocol``: a loading ladder
+    ``(name, values)`` instead (:mod:`.protocol_ladder`), with the table's ``curve_changes``."""
     import engine
 
     q = parse_quantity(quantity) if isinstance(quantity, str) else quantity
@@ -184,6 +189,20 @@ def run_convergence(scene, quantity: Quantity | str, out_dir, *,
     if reference not in ("auto", "analytic", "richardson", "finest"):
         raise ConvergenceError(f"reference {reference!r}: auto, analytic, richardson or finest")
     check_measurable(scene, q)
+    if protocol is not None:
+        if n_nodes or dt_factors:
+            raise ConvergenceError(f"a {protocol[0]} ladder changes the loading only: leave "
+                                   "out --dt-factor (and give one --ladder)")
+        levels = protocol_levels(json.loads(scene.to_json()), q, *protocol)
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        records = run_protocol_ladder(levels, out_dir, serial=serial, scheduler=scheduler,
+                                      workers=workers, progress=progress)
+        table = tabulate(scene, q, levels, records, "finest" if reference == "auto"
+                         else reference)
+        table.curve_changes = curve_changes(levels, records)
+        write_outputs(table, out_dir, scene_json=scene.to_json())
+        return table
     levels, records = run_ladder(scene, out_dir, n_nodes=n_nodes, dt_factors=dt_factors,
                                  serial=serial, scheduler=scheduler, workers=workers,
                                  progress=progress, warm_up=warm_up)

@@ -90,6 +90,8 @@ class ConvergenceTable:
     rows: list = field(default_factory=list)
     cheapest: dict = field(default_factory=dict)
     measured_at: str = ""
+    setting: Optional[str] = None      # a loading ladder's protocol setting (rows' "setting")
+    curve_changes: list = field(default_factory=list)  # each level's curve against the last
 
     def to_dict(self) -> dict:
         return _json_null(asdict(self))
@@ -99,13 +101,16 @@ class ConvergenceTable:
         name = f"{self.quantity} [{self.unit}]"
         lines = [f"{'level':>5} {'n_nodes':>7} {'dt [s]':>11} {name:>24} "
                  f"{'error':>10} {'wall [s]':>9}  status"]
+        if self.setting:
+            lines[0] = f"{self.setting:>19} " + lines[0]
         for r in self.rows:
             q = "nan" if r["quantity"] is None else f"{r['quantity']:.6g}"
             e = "nan" if r["error"] is None else f"{r['error']:+.3e}"
             w = "nan" if r["wall_s"] is None else f"{r['wall_s']:.2f}"
             dt = "auto" if r["dt"] is None else f"{r['dt']:.4g}"
             n = "" if r["n_nodes"] is None else str(r["n_nodes"])
-            lines.append(f"{r['level']:>5} {n:>7} {dt:>11} {q:>24} {e:>10} {w:>9}  "
+            lines.append(("" if not self.setting else f"{r['setting']:>19g} ") +
+                         f"{r['level']:>5} {n:>7} {dt:>11} {q:>24} {e:>10} {w:>9}  "
                          f"{r['status']}{'  ' + r['message'] if r.get('message') else ''}")
         ref = "none" if self.reference is None else f"{self.reference:.8g} {self.unit}"
         lines.append(f"reference: {ref} ({self.reference_kind}: {self.reference_note})")
@@ -118,12 +123,23 @@ class ConvergenceTable:
             fit = "nan" if self.fitted_order is None else f"{self.fitted_order:.3g}"
             lines.append(f"observed order between levels (h = {self.resolution}): {orders}; "
                          f"least-squares fit: {fit}")
+        for c in self.curve_changes:
+            if c is None:
+                continue
+            where = "" if c["at_depth_m"] is None else f" (at {c['at_depth_m'] * 1e3:g} mm)"
+            lines.append(f"whole curve, level {c['level']} against {c['against_level']}: "
+                         f"largest change {c['max_rel_change']:.2%}{where} over forces above "
+                         f"{c['compared_above_N']:.3g} N; "
+                         f"{'within' if c['converged'] else 'NOT within'} "
+                         f"{c['tolerance']:.0%}")
         for tol, row in self.cheapest.items():
             pct = f"{100 * float(tol):g} %"
             lines.append(f"cheapest level within {pct}: " + (
                 "none" if row is None else
-                f"level {row['level']} (n_nodes {row['n_nodes']}, dt {row['dt']:.4g} s) "
-                f"in {row['wall_s']:.2f} s"))
+                f"level {row['level']} (" + (
+                    f"{self.setting} {row['setting']:g}" if self.setting else
+                    f"n_nodes {row['n_nodes']}, dt {row['dt']:.4g} s") +
+                f") in {row['wall_s']:.2f} s"))
         return "\n".join(lines)
 
 
@@ -173,7 +189,9 @@ def analyse(quantity: Quantity, levels: Sequence[Level], values: Sequence[float]
     rows = []
     for i, lv in enumerate(levels):
         rows.append({"level": lv.level, "n_nodes": lv.n_nodes, "dt": dts[i],
-                     "dt_factor": lv.dt_factor, "quantity": values[i], "error": errors[i],
+                     "dt_factor": lv.dt_factor,
+                     "setting": None if lv.setting is None else lv.setting[1],
+                     "quantity": values[i], "error": errors[i],
                      "wall_s": walls[i], "status": statuses[i], "message": messages[i],
                      "run_id": run_ids[i] if run_ids else lv.run_id,
                      "h5": str(h5s[i]) if h5s else None})
@@ -196,5 +214,6 @@ def analyse(quantity: Quantity, levels: Sequence[Level], values: Sequence[float]
         richardson=rich if math.isfinite(rich) else None,
         richardson_order=rich_p if math.isfinite(rich_p) else None,
         rows=rows, cheapest=cheapest,
-        measured_at=time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()))
+        measured_at=time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+        setting=levels[0].setting[0] if levels and levels[0].setting else None)
     return table

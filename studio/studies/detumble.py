@@ -1,0 +1,372 @@
+"""``brush-studio study detumble``: a chaser holds its brush against a tumbling target in
+orbit until the target's spin is gone (issue 15, item 4).
+
+Scenes come from a detumble preset (``detumble_upper_stage``, ``detumble_box_satellite``;
+their descriptions give every assumption, ``static_presets/detumble_presets.py`` the layout:
+free ``target``, free ``chaser`` carrying ``brush``, controller ``chaser_control`` holding
+the chaser at an offset from the target's centre). The study sweeps, as a grid:
+
+* target size: a scale factor on the target's shape (its density kept: mass x s^3, inertia
+  x s^5, centre of mass x s); the chaser's held offset and start move with the surface;
+* spin rate (deg/s) about the preset's spin axis;
+* brush design: bristle length (mm) and root diameter (mm; the tip keeps its ratio); the
+  chaser's held offset moves with the length, so the held tip interference is kept.
+
+Per run (``detumble_analysis``): the target's |w|(t) and angular momentum, the time to
+detumble (|w| below ``threshold`` of its initial value to the end), peak contact force and
+torque on the target and on the chaser (the brush's load), the chaser's Delta-v, angular
+impulse and attitude error, and the bristles' peak bending stress against the stress limit.
+
+Outputs (``-o DIR``): ``detumble_summary.json`` (every run's numbers and parameters),
+``detumble_summary.csv``, ``omega.png`` (|w| against time, one line per run),
+``outcomes.json``; ``runs/`` one result file per run. Every run is one Dask task
+(``studio.studies.runner.run_many``).
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+from . import api
+from .api import ExecutionOptions, StudyResult
+from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
+
+PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
+#: bending stress limits of the bristle materials, Pa (the scene model has no strength):
+#: silicone rubber tears at 5-11 MPa in tension; the low end, as a conservative limit
+STRESS_LIMITS = {"silicone": 5e6}
+DEG = math.pi / 180.0
+
+
+# ----------------------------------------------------------------------------- scenes
+def _target_extent(target: dict, axis: np.ndarray) -> float:
+    """The target's largest extent from its centre of mass along ``axis`` (world), m."""
+    from engine.meshes import body_geometry
+    from engine.rotations import quat_to_matrix
+    from engine.spec import Body
+
+    body = Body.model_validate(target)
+    geo = body_geometry(body)
+    R = quat_to_matrix(np.asarray(body.pose.orientation, float))
+    return float(np.max((geo.vertices @ R.T) @ axis))
+
+
+def _scale_shape(shape: dict, s: float) -> dict:
+    shape = dict(shape)
+    for key in ("size",):
+        if key in shape:
+            shape[key] = [v * s for v in shape[key]]
+    for key in ("radius", "height", "length"):
+        if key in shape:
+            shape[key] = shape[key] * s
+    if shape.get("type") == "mesh":
+        shape["scale"] = shape.get("scale", 1.0) * s
+    return shape
+
+
+def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] = None,
+                   length_mm: Optional[float] = None, diameter_mm: Optional[float] = None,
+                   n_nodes: Optional[int] = None, rows: Optional[int] = None,
+                   columns: Optional[int] = None, duration: Optional[float] = None,
+                   record_interval: Optional[float] = None) -> dict:
+    """The scene (dict) of one run: the preset with the target scaled by ``size``, spinning
+    at ``spin_deg`` deg/s about its preset axis, bristles ``length_mm`` long with a
+    ``diameter_mm`` root; ``n_nodes``, ``rows`` / ``columns``, ``duration`` and
+    ``record_interval`` override the preset's resolution (a reduced run)."""
+    from studio import presets
+
+    scene = json.loads(presets.load_preset_or_file(preset).to_json())
+    bodies = {b["name"]: b for b in scene["bodies"]}
+    ctl = next((c for c in scene["controllers"] if c["name"] == CONTROLLER), None)
+    mounted = [b for b in scene["brushes"] if b.get("mount") == CHASER]
+    brush = mounted[0] if mounted else None   # the presets' brushes share one design
+    if TARGET not in bodies or CHASER not in bodies or ctl is None or brush is None:
+        from engine import SceneError
+        raise SceneError.single("(scene)", preset,
+                                f"not a detumble scene: it needs bodies {TARGET!r} and "
+                                f"{CHASER!r}, a brush mounted on {CHASER!r} and the "
+                                f"controller {CONTROLLER!r}")
+    target, chaser = bodies[TARGET], bodies[CHASER]
+    offset = np.asarray(ctl["position"], float)
+    axis = offset / np.linalg.norm(offset)
+    shift = 0.0
+    if size != 1.0:
+        before = _target_extent(target, axis)
+        target["shape"] = _scale_shape(target["shape"], size)
+        mp = target["mass_properties"]
+        if mp.get("density") is None:  # mass and inertia given: scale them
+            mp["mass"] *= size ** 3
+            mp["inertia"] = [[v * size ** 5 for v in row] for row in mp["inertia"]]
+            if mp.get("center_of_mass") is not None:
+                mp["center_of_mass"] = [v * size for v in mp["center_of_mass"]]
+        shift += _target_extent(target, axis) - before
+    w_preset = np.asarray(target["angular_velocity"], float)
+    if spin_deg is not None:
+        target["angular_velocity"] = list(w_preset / np.linalg.norm(w_preset) * spin_deg * DEG)
+        stop = scene["run"].get("stop")
+        if stop and stop.get("body") == TARGET:  # the preset's stop is relative to its spin
+            stop["value"] *= spin_deg * DEG / float(np.linalg.norm(w_preset))
+    # a longer bristle reaches farther along the approach axis by its projection on it
+    from engine.rotations import quat_to_matrix
+    along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
+        @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
+    cos_tilt = abs(float(along @ axis))
+    if length_mm is not None:
+        shift += (length_mm * 1e-3 - brush["bristle_length"]) * cos_tilt
+    if diameter_mm is not None:
+        ratio = brush["tip_radius"] / brush["root_radius"]
+        shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]  # a sphere's
+    for b in mounted:
+        if length_mm is not None:
+            b["bristle_length"] = length_mm * 1e-3
+        if diameter_mm is not None:
+            ratio = b["tip_radius"] / b["root_radius"]
+            b["root_radius"] = 0.5 * diameter_mm * 1e-3
+            b["tip_radius"] = b["root_radius"] * ratio
+    ctl["position"] = list(offset + shift * axis)
+    chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
+                                      + shift * axis)
+    for key, value in (("n_nodes", n_nodes), ("rows", rows), ("columns", columns)):
+        if value is not None:
+            for b in mounted:
+                b[key] = int(value)
+    if duration is not None:
+        scene["run"]["duration"] = float(duration)
+    if record_interval is not None:
+        scene["run"]["record_interval"] = float(record_interval)
+    scene["name"] = f"{preset}_study"
+    scene["description"] = (
+        f"Study 'detumble': the preset {preset} with the target scaled x{size:g}, spinning at "
+        f"{np.linalg.norm(target['angular_velocity']) / DEG:g} deg/s, bristles "
+        f"{brush['bristle_length'] * 1e3:g} mm, root diameter "
+        f"{2 * brush['root_radius'] * 1e3:g} mm, {brush['rows']} x {brush['columns']}, "
+        f"{brush['n_nodes']} nodes each. " + scene["description"])
+    return scene
+
+
+# ----------------------------------------------------------------------------- task
+def detumble_task(scene, h5_path: Path, params: dict) -> dict:
+    """Dask task: run one detumble scene and summarise it (JSON-able)."""
+    import engine
+
+    system = engine.build(scene)
+    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
+    api.check_cancel()
+    data = read_detumble(h5_path)
+    out = analyse(data, params["threshold"], params["stress_limit"])
+    s = result.summary
+    wall = s.get("wall_s") or 0.0
+    out.update(status=result.status if result.status in ("completed", "stopped")
+               else "failed", dt=system.dt, wall_s=wall, steps=s.get("steps"),
+               n_nodes=system.n_nodes,
+               node_steps_per_s=(s.get("steps") or 0) * system.n_nodes / wall if wall else None)
+    return out
+
+
+# ----------------------------------------------------------------------------- study
+def build_specs(options: "Options", grid: dict):
+    from .runner import RunSpec
+
+    specs = []
+    for size in grid["sizes"]:
+        for spin in grid["spins"]:
+            for length in grid["lengths"]:
+                for diameter in grid["diameters"]:
+                    params = {"preset": options.preset, "size": size, "spin_deg": spin,
+                              "length_mm": length, "diameter_mm": diameter,
+                              "threshold": options.threshold,
+                              "stress_limit": grid["stress_limit"]}
+                    run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
+                        ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
+                    scene = detumble_scene(
+                        options.preset, size=size, spin_deg=spin, length_mm=length,
+                        diameter_mm=diameter, n_nodes=options.n_nodes, rows=options.rows,
+                        columns=options.columns, duration=options.duration,
+                        record_interval=options.record_interval)
+                    specs.append(RunSpec(run_id=run_id, scene=scene, params=params,
+                                         task="studio.studies.detumble:detumble_task"))
+    return specs
+
+
+def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
+    """detumble_summary.json / .csv and omega.png from the finished runs."""
+    from .runner import write_json_atomic
+
+    out_dir = Path(out_dir)
+    ok = [o for o in outcomes if o.ok]
+    rows = []
+    for o in outcomes:
+        row = {"run_id": o.run_id, "status": o.status, "error": o.error}
+        row.update(o.params)
+        row.update(o.summary if o.ok else {})
+        row["status"] = o.status
+        rows.append(row)
+    write_json_atomic(out_dir / "detumble_summary.json", {"runs": rows})
+    keys = sorted({k for r in rows for k in r})
+    with (out_dir / "detumble_summary.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    plot_omega(out_dir / "omega.png", [(o.run_id, read_detumble(o.h5)) for o in ok],
+               threshold)
+    return {"runs": rows}
+
+
+def _floats(text: Optional[str], what: str) -> list:
+    if text is None:
+        return [None]
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"{what} {text!r}: expected comma-separated numbers") from None
+    if not values or any(not math.isfinite(v) or v <= 0 for v in values):
+        raise ValueError(f"{what} {text!r}: numbers > 0")
+    return values
+
+
+@dataclass
+class Options(ExecutionOptions):
+    """``brush-studio study detumble`` (``None``: the preset's value)."""
+
+    preset: str = "detumble_upper_stage"
+    sizes: str = "1"                  # target scale factors
+    spins: Optional[str] = None       # deg/s
+    lengths: Optional[str] = None     # bristle lengths, mm
+    diameters: Optional[str] = None   # bristle root diameters, mm
+    threshold: float = 0.05           # detumbled: |w| below this fraction of the initial
+    stress_limit: Optional[float] = None  # Pa; default STRESS_LIMITS[material]
+    n_nodes: Optional[int] = None
+    rows: Optional[int] = None
+    columns: Optional[int] = None
+    duration: Optional[float] = None
+    record_interval: Optional[float] = None
+
+
+def add_parser(study_subparsers) -> None:
+    from .runner import add_common_options
+
+    p = study_subparsers.add_parser(
+        "detumble", help="a chaser's brush detumbles a spinning target in orbit (issue 15)",
+        description="A chaser holds its brush against a spinning target (a detumble preset) "
+                    "until the target's spin is gone: |omega|(t), angular momentum, time to "
+                    "detumble, peak loads on target and chaser, the chaser's Delta-v and "
+                    "attitude error, peak bristle bending stress against the limit; swept "
+                    "over target size, spin rate and brush design. See docs/mission.md.")
+    p.add_argument("--preset", default="detumble_upper_stage", metavar="NAME_OR_FILE",
+                   help="the detumble scene: " + " or ".join(PRESETS) + " (default "
+                        "detumble_upper_stage), or a scene file with the same layout")
+    p.add_argument("--sizes", default="1", help="target scale factors (default 1)")
+    p.add_argument("--spins", default=None, metavar="DEG_PER_S",
+                   help="initial spin rates, deg/s (default: the preset's)")
+    p.add_argument("--lengths", default=None, metavar="MM",
+                   help="bristle lengths, mm (default: the preset's)")
+    p.add_argument("--diameters", default=None, metavar="MM",
+                   help="bristle root diameters, mm (default: the preset's)")
+    p.add_argument("--threshold", type=float, default=0.05,
+                   help="detumbled once |omega| stays below this fraction of its initial "
+                        "value (default 0.05)")
+    p.add_argument("--stress-limit", type=float, default=None, metavar="PA",
+                   help="bristle bending stress limit, Pa (default: "
+                        + ", ".join(f"{k} {v:g}" for k, v in STRESS_LIMITS.items()) + ")")
+    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
+                   metavar="N", help="nodes per bristle (default: the preset's)")
+    p.add_argument("--rows", type=int, default=None, help="brush rows (default: preset's)")
+    p.add_argument("--columns", type=int, default=None,
+                   help="bristles per row (default: the preset's)")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="simulated time per run at most (default: the preset's; a run "
+                        "stops earlier once the target is detumbled)")
+    p.add_argument("--record-interval", type=float, default=None, metavar="S")
+    add_common_options(p, default_output="study-detumble")
+    p.set_defaults(func=_cmd_detumble)
+
+
+def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
+        cancel=None) -> StudyResult:
+    """The detumble study of ``options`` into ``out_dir``."""
+    return api.run_body("detumble", _run_study, options, out_dir, progress, cancel)
+
+
+def _cmd_detumble(args) -> int:
+    return run(Options.from_args(args), args.output).exit_code
+
+
+def _grid(options: Options) -> dict:
+    """The swept values, checked; ValueError names the bad option."""
+    import engine
+    from studio import presets
+
+    grid = {"sizes": _floats(options.sizes, "--sizes"),
+            "spins": _floats(options.spins, "--spins"),
+            "lengths": _floats(options.lengths, "--lengths"),
+            "diameters": _floats(options.diameters, "--diameters")}
+    try:
+        scene = presets.load_preset_or_file(options.preset)
+    except (KeyError, OSError, engine.SceneError) as exc:
+        raise ValueError(f"--preset {options.preset!r}: {exc}") from None
+    brush = next((b for b in scene.brushes if b.mount == CHASER), None)
+    if brush is None:
+        raise ValueError(f"--preset {options.preset!r}: not a detumble scene (no brush "
+                         f"mounted on {CHASER!r}; presets: {list(PRESETS)})")
+    material = brush.material
+    limit = options.stress_limit if options.stress_limit is not None \
+        else STRESS_LIMITS.get(material)
+    if limit is None:
+        raise ValueError(f"--stress-limit: no default for bristle material {material!r}; "
+                         f"give it in Pa")
+    grid["stress_limit"] = float(limit)
+    return grid
+
+
+def _run_study(options: Options, out: Path) -> int:
+    from .runner import check_common_options, failures_text, first_problem, run_study
+
+    problem = check_common_options(options)
+    grid = None
+    try:
+        grid = _grid(options)
+    except ValueError as exc:
+        problem = problem or str(exc)
+    checks = [
+        (0 < options.threshold < 1, "--threshold must be between 0 and 1"),
+        (options.stress_limit is None or options.stress_limit > 0,
+         "--stress-limit must be > 0"),
+        (options.n_nodes is None or options.n_nodes >= 2, "--n-nodes must be >= 2"),
+        (options.rows is None or options.rows >= 1, "--rows must be >= 1"),
+        (options.columns is None or options.columns >= 1, "--columns must be >= 1"),
+        (options.duration is None or options.duration > 0, "--duration must be > 0"),
+        (options.record_interval is None or options.record_interval > 0,
+         "--record-interval must be > 0")]
+    problem = first_problem(problem, checks)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
+    out.mkdir(parents=True, exist_ok=True)
+    code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
+                               desc="detumble runs")
+    if code is not None:
+        return code
+    summary = write_outputs(out, outcomes, options.threshold)
+    print(f"{'run':36s} {'w0 deg/s':>8s} {'detumbled':>10s} {'F target':>9s} "
+          f"{'dv m/s':>8s} {'stress/limit':>12s}")
+    for r in summary["runs"]:
+        if r["status"] not in ("completed", "stopped"):
+            continue
+        td = f"{r['detumble_time']:.2f} s" if r["detumble_time"] is not None else "no"
+        ratio = f"{r['stress_ratio']:.3f}" if r["stress_ratio"] is not None else "-"
+        print(f"{r['run_id']:36s} {r['omega0'] / DEG:8.3g} {td:>10s} "
+              f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s}")
+    print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
+    failed = failures_text(outcomes)
+    if failed:
+        print("failed runs:\n" + failed, file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,155 @@
+"""What a detumble run did, from its result file (``brush-studio study detumble``).
+
+Every quantity comes from the recorded channels (docs/results.md) and the run's own scene:
+
+* the target's angular velocity ``w`` (relative to the world frame: the Hill frame with an
+  orbit) and its angular momentum ``L = R I_p R^T (w + Omega)`` (inertial, world components;
+  ``engine.results`` computes it), ``|w|(t)``;
+* the time to detumble: the first frame from which ``|w|`` stays below ``threshold`` times its
+  initial value to the end of the run (``None`` if it does not);
+* peak loads: on the target its recorded ``contact_force`` / ``contact_torque`` (about its
+  centre of mass; with the gravity-gradient torque, which is orders smaller); on the chaser
+  the brushes' load, ``-root_force`` summed over the brushes mounted on it and the largest
+  ``-root_torque`` (each about its own brush base);
+* the chaser's Delta-v (integral of |F|/m of its thrusters), angular impulse and attitude
+  error, from the controller's channels;
+* the peak bending stress of the bristles, ``sigma = M r / I = 4 M / (pi r^3)`` (a solid
+  circular section, ``r`` the bond's mean radius) from ``bonds/bending_moment``, against the
+  bristle material's stress limit.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+TARGET = "target"
+CHASER = "chaser"
+CONTROLLER = "chaser_control"
+
+
+def detumble_time(time: np.ndarray, speed: np.ndarray, threshold: float) -> Optional[float]:
+    """The first time from which ``speed`` stays below ``threshold * speed[0]`` until the
+    end; ``None`` if the last frame is not below it."""
+    time = np.asarray(time, float)
+    speed = np.asarray(speed, float)
+    if len(time) == 0:
+        return None
+    above = np.flatnonzero(speed >= threshold * speed[0])
+    first = int(above[-1]) + 1 if above.size else 0
+    return float(time[first]) if first < len(time) else None
+
+
+def bending_stress(moment: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Outer-fibre bending stress of a solid circular section, Pa: 4 M / (pi r^3)."""
+    return 4.0 * np.asarray(moment, float) / (math.pi * np.asarray(radius, float) ** 3)
+
+
+def peak_bending_stress(res) -> np.ndarray:
+    """Per frame, the largest bending stress over the bonds, Pa, from an open result file
+    (channel groups ``bending`` and ``nodes``: the moments and the node radii); NaN per frame
+    without them. A bond's radius is the mean of its two nodes' (its midpoint's, where the
+    moment is taken)."""
+    if "bonds/bending_moment" not in res.channels() or "nodes/radius" not in res.statics():
+        return np.full(res.n_frames, np.nan)
+    bonds = np.asarray(res.static("bonds/nodes"))
+    radius = np.asarray(res.static("nodes/radius"))
+    r_bond = 0.5 * (radius[bonds[:, 0]] + radius[bonds[:, 1]])
+    moment = np.asarray(res.series("bonds/bending_moment"), float)
+    return bending_stress(moment, r_bond[None, :]).max(axis=1)
+
+
+def read_detumble(h5_path: Path) -> dict:
+    """The series of a detumble run (time, target w and L, loads, controller channels,
+    bending stress) as arrays, and the scene facts they need."""
+    import engine
+
+    with engine.open_result(h5_path) as res:
+        scene = res.scene
+        t = np.asarray(res.time)
+        d = {"time": t, "status": res.status}
+        body = f"bodies/{TARGET}"
+        d["omega"] = np.asarray(res.series(f"{body}/angular_velocity"))
+        d["target_force"] = np.asarray(res.series(f"{body}/contact_force"))
+        d["target_torque"] = np.asarray(res.series(f"{body}/contact_torque"))
+        d["angular_momentum"] = np.asarray(res.body_angular_momentum(TARGET))
+        mounted = [b for b in scene.brushes if b.mount == CHASER]
+        brush = mounted[0]
+        # the brushes' load on the chaser: their forces add; their torques are each about
+        # its own base, so the largest per frame is kept
+        d["chaser_force"] = -sum(np.asarray(res.series(f"brushes/{b.name}/root_force"))
+                                 for b in mounted)
+        torques = [np.asarray(res.series(f"brushes/{b.name}/root_torque")) for b in mounted]
+        d["chaser_torque"] = np.stack(torques)[
+            np.argmax(np.stack([np.linalg.norm(t, axis=1) for t in torques]), axis=0),
+            np.arange(len(t))]
+        ctl = f"controllers/{CONTROLLER}"
+        for key in ("delta_v", "angular_impulse_total", "attitude_error", "position_error",
+                    "applied_force"):
+            d[key] = np.asarray(res.series(f"{ctl}/{key}"))
+        d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
+        d["peak_stress"] = peak_bending_stress(res)
+        d["material"] = brush.material
+        orbit = scene.environment.orbit
+        d["mean_motion"] = orbit.n if orbit is not None else 0.0
+    return d
+
+
+def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
+    """The run's summary (JSON-able) from :func:`read_detumble`'s arrays."""
+    t = d["time"]
+    speed = np.linalg.norm(d["omega"], axis=1)
+    L = np.linalg.norm(d["angular_momentum"], axis=1)
+    t_d = detumble_time(t, speed, threshold)
+    peak = lambda a: float(np.linalg.norm(a, axis=1).max()) if len(a) else 0.0  # noqa: E731
+    att = np.linalg.norm(d["attitude_error"], axis=1)
+    in_contact = d["n_contacts"] > 0
+    first_contact = float(t[np.argmax(in_contact)]) if in_contact.any() else None
+    stress = float(np.nanmax(d["peak_stress"])) if np.isfinite(d["peak_stress"]).any() \
+        else None
+    return {
+        "omega0": float(speed[0]) if len(t) else None,
+        "omega_end": float(speed[-1]) if len(t) else None,
+        "angular_momentum0": float(L[0]) if len(t) else None,
+        "angular_momentum_end": float(L[-1]) if len(t) else None,
+        "threshold": threshold, "detumble_time": t_d, "detumbled": t_d is not None,
+        "first_contact": first_contact, "end_time": float(t[-1]) if len(t) else 0.0,
+        "peak_target_force": peak(d["target_force"]),
+        "peak_target_torque": peak(d["target_torque"]),
+        "peak_chaser_force": peak(d["chaser_force"]),
+        "peak_chaser_torque": peak(d["chaser_torque"]),
+        "delta_v": float(d["delta_v"][-1]) if len(t) else 0.0,
+        "angular_impulse": float(d["angular_impulse_total"][-1]) if len(t) else 0.0,
+        "peak_attitude_error": float(att.max()) if len(t) else 0.0,
+        "peak_thrust": float(np.abs(d["applied_force"]).max()) if len(t) else 0.0,
+        "peak_bending_stress": stress, "stress_limit": stress_limit,
+        "stress_ratio": (stress / stress_limit) if stress is not None else None,
+        "material": d["material"]}
+
+
+def plot_omega(path: Path, runs: list[tuple[str, dict]], threshold: float) -> None:
+    """|w|(t) of the target of every run (one line each) into ``path`` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for label, d in runs:
+        speed = np.linalg.norm(d["omega"], axis=1)
+        ax.plot(d["time"], np.degrees(speed), lw=1, label=label)
+    if runs:
+        w0 = np.degrees(np.linalg.norm(runs[0][1]["omega"][0]))
+        ax.axhline(threshold * w0, color="k", ls=":", lw=0.8,
+                   label=f"threshold ({threshold:g} x initial, first run)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("target |ω| [deg/s]")
+    ax.set_title("Detumble: the target's angular speed (relative to the Hill frame)",
+                 fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

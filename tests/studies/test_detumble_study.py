@@ -1,0 +1,172 @@
+"""``brush-studio study detumble`` (issue 15, item 4): the brush takes the target's spin, the
+angular momentum it loses is the contact torque's impulse, the scene variants move what
+they say, the analysis reads the right numbers, and the command writes its outputs."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from studio.cli import main
+from studio.studies import detumble
+from studio.studies.detumble_analysis import bending_stress, detumble_time
+
+DEG = math.pi / 180
+# a reduced upper-stage run: 5 x 3 bristles of 4 nodes; the tips touch at ~1.3 s
+SMALL = dict(rows=5, columns=3, n_nodes=4)
+
+
+def _touching_scene(duration: float) -> dict:
+    """The reduced upper-stage scene with the tips 0.5 mm off the surface moving in at 2 cm/s
+    (the preset starts 10 mm off; the held interference is 30 mm, start - hold = 40 mm): the
+    contact begins at once. No stop condition."""
+    scene = detumble.detumble_scene("detumble_upper_stage", duration=duration, **SMALL)
+    scene["run"].pop("stop")
+    hold = scene["controllers"][0]["position"]
+    chaser = next(b for b in scene["bodies"] if b["name"] == "chaser")
+    chaser["pose"]["position"] = [hold[0] + 0.0305, hold[1], hold[2]]
+    chaser["velocity"] = [-0.02, 0.0, 0.0]
+    return scene
+
+
+def test_angular_momentum_change_is_the_contact_torque_impulse(tmp_path):
+    # Recorded every step, the target's torque integrates by the trapezoid rule to exactly
+    # the kick-drift-kick update of its L (two half kicks per step); the z component (the
+    # orbit normal, the spin axis) is untouched by the Hill frame's turn (Omega x L has no
+    # z part) and the stage's axial symmetry gives no gravity-gradient torque about z. So
+    # they agree to rounding over 4e3 steps (~1e-13 of L; 1e-9 of Delta L leaves margin).
+    # A contact torque about the wrong point, a lost moment arm or a torque recorded from
+    # another step would miss by its whole size.
+    scene = _touching_scene(0.4)
+    scene["run"].update(dt=1e-4, record_interval=1e-4, channels=["bodies", "contacts"])
+    system = engine.build(engine.parse_scene(scene))
+    result = engine.run(system, output=tmp_path / "d.h5")
+    with result.open() as res:
+        t = res.time
+        tq = res.series("bodies/target/contact_torque")
+        L = res.body_angular_momentum("target")
+        contacts = res.series("contacts/bristle_body")
+    target = next(b for b in scene["bodies"] if b["name"] == "target")
+    i_axis = target["mass_properties"]["inertia"][2][2]
+    n = engine.parse_scene(scene).environment.orbit.n
+    # L is inertial: the recorded w is relative to the Hill frame turning at n about z
+    assert L[0, 2] == pytest.approx(i_axis * (10 * DEG + n), rel=1e-12)
+    assert contacts.max() > 5                     # the brush did touch
+    impulse = np.trapezoid(tq[:, 2], t)
+    dL = L[-1, 2] - L[0, 2]
+    assert abs(dL) > 1e-3 * L[0, 2]               # a real torque acted ...
+    assert dL == pytest.approx(impulse, rel=1e-9)  # ... and L changed by its impulse
+
+
+def test_brush_takes_the_spin(tmp_path):
+    # 15 bristles rubbing the stage for 3 s: the friction torque (~0.15 N m, scaled from the
+    # preset's 0.85 N m on 85 bristles) takes ~5 % of L = 8.8 N m s. The first contact can
+    # add a little (buckling tips thrown along the surface: +0.4 % in 0.4 s), so the check
+    # is over 3 s, against 2 %; friction of the wrong sign would add spin instead.
+    scene = _touching_scene(3.0)
+    scene["run"].update(record_interval=0.05, channels=["bodies", "contacts"])
+    result = engine.run(engine.build(engine.parse_scene(scene)), output=tmp_path / "d.h5")
+    with result.open() as res:
+        L = np.linalg.norm(res.body_angular_momentum("target"), axis=1)
+        w = np.linalg.norm(res.series("bodies/target/angular_velocity"), axis=1)
+    assert L[-1] < 0.98 * L[0]
+    assert w[-1] < 0.98 * w[0]
+
+
+def test_size_spin_and_bristle_length_move_the_scene_as_documented():
+    base = detumble.detumble_scene("detumble_upper_stage")
+    big = detumble.detumble_scene("detumble_upper_stage", size=2.0, spin_deg=4.0,
+                                  length_mm=200.0, diameter_mm=8.0)
+    tb = {b["name"]: b for b in base["bodies"]}
+    tg = {b["name"]: b for b in big["bodies"]}
+    mp0, mp1 = tb["target"]["mass_properties"], tg["target"]["mass_properties"]
+    assert mp1["mass"] == pytest.approx(8 * mp0["mass"])                  # density kept
+    assert mp1["inertia"][2][2] == pytest.approx(32 * mp0["inertia"][2][2])
+    assert tg["target"]["shape"]["radius"] == pytest.approx(2 * tb["target"]["shape"]["radius"])
+    assert np.linalg.norm(tg["target"]["angular_velocity"]) == pytest.approx(4 * DEG)
+    b0, b1 = base["brushes"][0], big["brushes"][0]
+    assert b1["bristle_length"] == pytest.approx(0.2)
+    assert 2 * b1["root_radius"] == pytest.approx(8e-3)
+    assert b1["tip_radius"] / b1["root_radius"] == pytest.approx(b0["tip_radius"]
+                                                                 / b0["root_radius"])
+    # the held offset keeps the tips' interference: the surface moved out by the radius's
+    # growth (0.62 m), the base by the bristle's growth (length and tip radius)
+    shift = 0.62 + (0.2 - b0["bristle_length"]) + (b1["tip_radius"] - b0["tip_radius"])
+    x0 = base["controllers"][0]["position"][0]
+    x1 = big["controllers"][0]["position"][0]
+    assert x1 - x0 == pytest.approx(shift, rel=1e-9)
+    assert (tg["chaser"]["pose"]["position"][0] - tb["chaser"]["pose"]["position"][0]
+            == pytest.approx(shift, rel=1e-9))
+    # the stop threshold follows the spin (a fraction of the initial |w|)
+    assert big["run"]["stop"]["value"] / (4 * DEG) == pytest.approx(
+        base["run"]["stop"]["value"] / (10 * DEG))
+
+
+def test_a_scene_without_the_detumble_layout_is_refused():
+    with pytest.raises(engine.SceneError, match="not a detumble scene"):
+        detumble.detumble_scene("gripper")
+
+
+def test_detumble_time_is_when_speed_stays_below_the_threshold():
+    t = np.arange(6.0)
+    assert detumble_time(t, [10, 8, 0.4, 0.6, 0.3, 0.2], 0.05) == 4.0  # 0.6 >= 0.5
+    assert detumble_time(t, [10, 8, 4, 2, 1, 0.6], 0.05) is None
+    assert detumble_time(t, [10, 0.1, 0.1, 0.1, 0.1, 0.1], 0.05) == 1.0
+
+
+def test_bending_stress_of_a_cantilever_is_the_beam_formula(tmp_path):
+    # a uniform 1 mm steel rod, 6 nodes, a static 0.01 N tip load settled by local damping:
+    # the first bond's midpoint moment is F (L - h/2), the stress 4 M / (pi r^3). The
+    # deflection is 0.6 % of L, so geometric nonlinearity is ~1e-5; the settling leaves
+    # < 1e-3 (damped for 40 periods); 1 % catches a diameter used for the radius (x8) or
+    # a section modulus of a square (x 3 pi/16 ... ).
+    L, r, F, n = 0.1, 0.5e-3, 0.01, 6
+    scene = engine.parse_scene({
+        "materials": {"steel": {"youngs_modulus": 200e9, "density": 7800.0}},
+        "brushes": [{"name": "rod", "material": "steel", "bristle_length": L,
+                     "root_radius": r, "tip_radius": r, "n_nodes": n}],
+        "loads": [{"brush": "rod", "node": -1, "force": [F, 0.0, 0.0]}],
+        "environment": {"local_damping": 0.7},
+        "run": {"duration": 0.4, "record_interval": 0.1, "channels": ["nodes", "bending"]}})
+    result = engine.run(engine.build(scene), output=tmp_path / "rod.h5")
+    from studio.studies.detumble_analysis import peak_bending_stress
+    with result.open() as res:
+        stress = peak_bending_stress(res)
+    h = L / (n - 1)
+    expected = bending_stress(F * (L - h / 2), r)
+    assert stress[-1] == pytest.approx(expected, rel=0.01)
+
+
+def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
+    out = tmp_path / "study"
+    code = main(["study", "detumble", "-o", str(out), "--spins", "5,10", "--rows", "3",
+                 "--columns", "3", "--nodes", "3", "--duration", "1.6",
+                 "--record-interval", "0.05", "--workers", "1", "--no-progress"])
+    assert code == 0
+    summary = json.loads((out / "detumble_summary.json").read_text())["runs"]
+    assert [r["spin_deg"] for r in summary] == [5.0, 10.0]
+    for r in summary:
+        assert r["status"] == "completed"
+        assert r["omega0"] == pytest.approx(r["spin_deg"] * DEG, rel=1e-12)
+        assert r["first_contact"] is not None and r["peak_target_force"] > 0
+        assert r["first_contact"] < 1.6 and r["peak_target_torque"] > 0
+        assert 0 < r["peak_bending_stress"] < r["stress_limit"]
+        assert r["stress_ratio"] == pytest.approx(r["peak_bending_stress"] / 5e6)
+        assert r["delta_v"] > 0 and r["peak_thrust"] <= 10.0 + 1e-12  # the saturation
+    # L0 = I_axis (w0 + n): inertial, the recorded w being relative to the Hill frame
+    n = engine.parse_scene(detumble.detumble_scene("detumble_upper_stage")).environment.orbit.n
+    assert summary[1]["angular_momentum0"] / summary[0]["angular_momentum0"] == pytest.approx(
+        (10 * DEG + n) / (5 * DEG + n), rel=1e-12)
+    assert (out / "omega.png").stat().st_size > 1000
+    assert (out / "detumble_summary.csv").read_text().count("\n") == 3
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["--sizes", "0"], "--sizes"), (["--threshold", "1.5"], "--threshold"),
+    (["--preset", "gripper"], "not a detumble scene"), (["--spins", "x"], "--spins")])
+def test_bad_options_are_refused_with_exit_2(tmp_path, capsys, argv, text):
+    assert main(["study", "detumble", "-o", str(tmp_path), *argv]) == 2
+    assert text in capsys.readouterr().err
