@@ -49,6 +49,7 @@ from numba import njit
 from .bodies import FIXED, KINEMATIC
 from .body_contacts import closest_triangle, deep_closest, feature_normal
 from .contact_law import contact_force, normal_stiffness
+from .jit import item_kernel
 from .rotations import qrot, qrot_inv
 
 
@@ -248,7 +249,7 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
                         btq, stats, dt)
 
 
-@njit(cache=True)
+@item_kernel
 def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, verts, tris,
                          tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                          grid_start, grid_tris, ft, friction, scratch, hits):
@@ -317,7 +318,7 @@ def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, ve
     return n
 
 
-@njit(cache=True)
+@item_kernel
 def _apply_hits(s, t, n, hits, kn, kt, mu, zeta, meff, length, bv, bw, ft, friction, bf,
                 btq, stats, dt):
     """The contact forces of body s's points inside body t found by
