@@ -16,6 +16,8 @@ from . import meshes, overlap
 from .bodies import FIXED, FREE, HINGE, KINEMATIC
 from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
+from .mesh_contact import (contact_points, initial_overlap, mesh_contact_stiffness,
+                           pair_stiffness, point_contact_length)
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
@@ -281,6 +283,9 @@ def build(scene: Scene) -> System:
     watertight = np.zeros(K, np.bool_)
     bmat = np.zeros(K, np.int64)
     collide = np.zeros(K, np.bool_)
+    point_len = np.zeros(K)   # engine.mesh_contact: radius of a point's share of surface
+    point_start = np.zeros(K + 1, np.int64)
+    points_all = []
     seg_rows = []
     seg_start = [0]
     verts_all, tris_all, normals_all, pnormals_all = [], [], [], []
@@ -330,6 +335,13 @@ def build(scene: Scene) -> System:
         c_off += int(np.prod(dims))
         v_off += len(vp)
         t_off += len(tris)
+        try:
+            points_all.append(contact_points(vp, tris, body.contact_spacing))
+        except ValueError as exc:
+            raise SceneError.single(f"{fld}.contact_spacing", body.contact_spacing,
+                                    str(exc)) from None
+        point_start[k + 1] = point_start[k] + len(points_all[-1])
+        point_len[k] = point_contact_length(vp, tris, len(points_all[-1]))
         sphere_r[k] = geo.sphere_radius
         bound_r[k] = geo.bounding_radius
         watertight[k] = geo.watertight
@@ -560,7 +572,9 @@ def build(scene: Scene) -> System:
         grid_origin=g_origin, grid_cell=g_cell, grid_dims=g_dims, grid_base=g_base,
         grid_start=np.ascontiguousarray(g_start, np.int64),
         grid_tris=np.ascontiguousarray(g_tris, np.int64), ft_bb=np.zeros((K, K, 3)),
-        scratch=np.zeros(3), scratch2=np.zeros((2, 3)))
+        scratch=np.zeros(3), scratch2=np.zeros((2, 3)), point_start=point_start,
+        points=np.concatenate(points_all) if K else np.zeros((1, 3)),
+        mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)), ft_mesh=np.zeros((1, 1, 3)))
     # kinematic bodies start on their profile
     from .bodies import kinematic_state
     for k in range(K):
@@ -587,23 +601,40 @@ def build(scene: Scene) -> System:
     bb_needed = bool(node_partners.any())
     bbody_needed = N > 0 and bool(collide.any())
     spheres = [k for k in range(K) if collide[k] and sphere_r[k] > 0]
+    meshmesh_needed = False
     bodybody_needed = False
     for k1 in range(K):
         for k2 in range(k1 + 1, K):
             if not (collide[k1] and collide[k2]):
                 continue
+            if not any(motion[k] in (FREE, HINGE) or after_free[k] for k in (k1, k2)):
+                continue
+            excluded = (body_names[k2] in scene.bodies[k1].no_contact_with
+                        or body_names[k1] in scene.bodies[k2].no_contact_with)
             if sphere_r[k1] <= 0 and sphere_r[k2] <= 0:
-                if motion[k1] != FIXED or motion[k2] != FIXED:
+                if excluded:
+                    continue
+                if not (watertight[k1] and watertight[k2]):
                     warnings.append(f"bodies {body_names[k1]!r} and {body_names[k2]!r}: "
-                                    f"mesh-mesh contacts are not computed (only sphere "
-                                    f"bodies touch other bodies)")
-                continue
-            if motion[k1] in (FIXED, KINEMATIC) and motion[k2] in (FIXED, KINEMATIC):
-                continue
+                                    f"mesh-mesh contact needs two closed (watertight) "
+                                    f"meshes; this pair does not touch")
+                    continue
+                kn_pair = pair_stiffness(E_tab[bmat[k1]], point_len[k1], E_tab[bmat[k2]],
+                                         point_len[k2])
+                bodies.mesh_kn[k1, k2] = bodies.mesh_kn[k2, k1] = kn_pair
+                bodies.mesh_len[k1, k2] = bodies.mesh_len[k2, k1] = min(point_len[k1],
+                                                                        point_len[k2])
+                meshmesh_needed = True
+            elif excluded:
+                raise SceneError.single(f"bodies.{k1}.no_contact_with", body_names[k2],
+                                        "only pairs of mesh bodies can be excluded; a "
+                                        "sphere body touches every colliding body")
             bodybody_needed = True
     fr_bb = bb_needed and any(mu[a, b] > 0 for a in bristle_mats for b in bristle_mats)
     fr_body = bbody_needed and any(mu[a, b] > 0 for a in bristle_mats for b in body_mats)
     fr_bodybody = bodybody_needed and any(mu[a, b] > 0 for a in body_mats for b in body_mats)
+    if meshmesh_needed and fr_bodybody:
+        bodies = bodies._replace(ft_mesh=np.zeros((int(point_start[-1]), K, 3)))
     rigid = bool(np.any(motion != FIXED))
     mounted = bool(np.any(roots.body >= 0))
     has_gravity = bool(np.any(gravity != 0)) and (bool(node_free.any()) or rigid)
@@ -656,6 +687,7 @@ def build(scene: Scene) -> System:
                 k_body += 2.0 * float(E_tab[bmat[k]]) * sphere_r[k] * 2
             elif bodybody_needed and spheres:
                 k_body += 2.0 * float(E_tab[bmat[k]]) * max(sphere_r[s] for s in spheres) * 2
+            k_body += mesh_contact_stiffness(bodies, k)
             bodies_info.append((body_names[k], float(mass[k]), float(Ip[k].min()), k_body,
                                 float(bound_r[k])))
     kt_bb = max([ktr[a, b] for a in bristle_mats for b in bristle_mats if mu[a, b] > 0],
@@ -754,6 +786,8 @@ def build(scene: Scene) -> System:
         stages.append("bristle_body_contacts")
     if bodybody_needed:
         stages.append("body_body_contacts")
+    if meshmesh_needed:
+        stages.append("mesh_mesh_contacts")
     if fr_bb or fr_body or fr_bodybody:
         stages.append("tangential_history")
     if rigid:
@@ -779,6 +813,16 @@ def build(scene: Scene) -> System:
                        MAX_BODY_STEP_RATIO * (r_min if N else 1.0), skin, alpha])
     acc = np.zeros(ACC_SIZE)
     tables = Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity)
+    if meshmesh_needed:
+        touching, depth = initial_overlap(bodies)
+        if depth > MAX_OVERLAP_RATIO:
+            raise SceneError.single("bodies", body_names, (
+                f"two mesh bodies start interpenetrating ({depth:.3g} x the contact point "
+                f"length deep, limit {MAX_OVERLAP_RATIO}): move them apart, or list one in "
+                f"the other's no_contact_with"))
+        if touching:
+            warnings.append(f"{touching} mesh-mesh contact point(s) start inside another "
+                            f"body (at most {depth:.3g} x the contact point length deep)")
     system = System(scene=scene, nodes=nodes, bonds=bonds, roots=roots, bodies=bodies,
                     pairs=pairs, body_pairs=body_pairs, loads=loads, tables=tables,
                     flags=flags, acc=acc, err=np.zeros(4), stage_time=np.zeros(len(STAGES)),

@@ -331,7 +331,8 @@ def _instability_by_code(system: System, code: int) -> InstabilityError:
                                 f"or thicker bristles.",
                                 detail=f"overlap ratio {e[1]:.3g}")
     if code == FAIL_OVERLAP_BODYBODY:
-        return InstabilityError("body-body contact overlap", "a sphere body", t,
+        return InstabilityError("body-body contact overlap (overlap / sphere radius, or a "
+                                "mesh vertex's depth / its vertex length)", "two bodies", t,
                                 f"{lower_dt}.", detail=f"overlap ratio {e[1]:.3g}")
     if code == FAIL_BODY_SPEED:
         return InstabilityError("body displacement per step",

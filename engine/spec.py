@@ -312,6 +312,14 @@ class Body(_Model):
     velocity: Vector3 = (0.0, 0.0, 0.0)
     angular_velocity: Vector3 = Field((0.0, 0.0, 0.0), description="world frame, rad/s")
     collide: bool = Field(True, description="False: a body that only carries brushes")
+    no_contact_with: list[str] = Field(
+        default_factory=list, description="names of other bodies this body never touches "
+                                          "(e.g. a chaser and a fixture it is docked to)")
+    contact_spacing: Optional[PositiveFloat] = Field(
+        None, description="m; mesh-mesh contact tests the mesh's vertices, and with a "
+                          "spacing also points along its edges and inside its faces at most "
+                          "this far apart (needed where a face meets another body away from "
+                          "its vertices, e.g. a cylinder's side)")
     external_force: Vector3 = Field(
         (0.0, 0.0, 0.0), description="constant force on a free body's centre of mass, world "
                                      "(Hill) axes, N: a disturbance such as a thruster bias")
@@ -523,6 +531,11 @@ class Scene(_Model):
             if body.material not in mats:
                 problems.append((f"bodies.{i}.material", body.material,
                                  f"must be one of the materials {sorted(mats)}"))
+            for other in body.no_contact_with:
+                if other not in bnames or other == body.name:
+                    problems.append((f"bodies.{i}.no_contact_with", other,
+                                     f"must name another body: one of "
+                                     f"{[n for n in bnames if n != body.name]}"))
             needs_mass = body.motion.type in ("free", "hinge") or (
                 body.motion.type == "kinematic" and body.motion.after == "free")
             if needs_mass and body.mass_properties is None:

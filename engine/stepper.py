@@ -20,6 +20,7 @@ from .control import apply_controllers, apply_external
 from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
                             carry_body_history, scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_node_forces
+from .mesh_contact import mesh_mesh_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
@@ -463,6 +464,13 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
                                tb.mu, tb.kt, tb.zeta, bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
                                stats, dt)
+            mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r,
+                               bd.material, bd.point_start, bd.points, bd.mesh_kn,
+                               bd.mesh_len, bd.verts,
+                               bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
+                               bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.mu,
+                               tb.kt, tb.zeta, bd.ft_mesh, fl.friction_body_body, bd.scratch,
+                               bd.f, bd.tq, stats, dt)
             acc[ACC_N_BODYBODY] = stats[0]
             acc[ACC_E_BODYBODY] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]

@@ -10,7 +10,7 @@ import inspect
 
 import pytest
 
-from engine import bodies, body_contacts, contacts, stepper
+from engine import bodies, body_contacts, contacts, mesh_contact, stepper
 
 PER_ITEM = {
     contacts: ("_pair_contacts", "point_segment_max_overlap", "best_of_neighbours",
@@ -21,6 +21,7 @@ PER_ITEM = {
     stepper: ("predicted_displacement", "check_state", "local_damping", "add_gravity",
               "add_loads", "roots_follow", "roots_to_bodies"),
     bodies: ("bodies_half_kick", "bodies_drift", "kinematic_state"),
+    mesh_contact: ("_find_points_in_body", "_apply_hits"),
 }
 
 
@@ -41,6 +42,8 @@ def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():
                    "bristle_bristle_narrow", "scatter_bristle_bristle"},
         body_contacts: {"build_body_candidates", "carry_body_history", "bristle_body_narrow",
                         "scatter_bristle_body", "body_body_contacts", "_edge_fade_forces"},
+        # once per step (allocates each pair's hit buffers), and the build-time check
+        mesh_contact: {"mesh_mesh_contacts", "_deepest_points"},
     }
     for module, allowed in allowed_with_nrt.items():
         for name, fn in inspect.getmembers(module):
