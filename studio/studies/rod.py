@@ -41,6 +41,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from engine.beam_theory import rod_frequency
+
 from . import api
 from .api import ExecutionOptions, StudyResult
 
@@ -70,10 +72,9 @@ def cantilever_frequencies(length: float = ROD_LENGTH, radius: float = ROD_RADIU
                            youngs_modulus: float = STEEL["youngs_modulus"],
                            density: float = STEEL["density"], n_modes: int = 3) -> list[float]:
     """Euler-Bernoulli bending frequencies (Hz) of a uniform clamped-free rod:
-    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`studio.studies.reference`)."""
-    from .reference import cantilever_frequencies as frequencies
-
-    return frequencies(length, radius, youngs_modulus, density, n_modes)
+    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`engine.beam_theory`)."""
+    return [rod_frequency(n, length, youngs_modulus, radius, density)
+            for n in range(1, n_modes + 1)]
 
 
 # ----------------------------------------------------------------------------- spectra

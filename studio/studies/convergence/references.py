@@ -8,7 +8,8 @@ from typing import Optional
 
 import numpy as np
 
-from ..reference import cantilever_beta_l, cantilever_frequency  # noqa: F401  (re-exported)
+from engine.beam_theory import rod_frequency
+
 from .quantities import Quantity, _quat_matrix
 
 
@@ -108,7 +109,7 @@ def analytic_reference(scene, quantity: Quantity) -> Optional[Reference]:
     if quantity.kind == "spectral_peak":
         if abs(brush.root_radius - brush.tip_radius) > 1e-12 * brush.root_radius:
             return None
-        f = cantilever_frequency(quantity.peak, L, E, brush.root_radius, rho)
+        f = rod_frequency(quantity.peak, L, E, brush.root_radius, rho)
         return Reference(f, "analytic", f"Euler-Bernoulli cantilever mode {quantity.peak}: "
                          f"(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4)) = {f:.6g} Hz")
     axis = _quat_matrix(brush.base.orientation) @ np.array([0.0, 0.0, 1.0])
