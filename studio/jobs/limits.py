@@ -47,7 +47,7 @@ class LimitError(ValueError):
         self.status, self.retry_after = status, retry_after
 
     def as_dict(self) -> dict:
-        from ..jsonable import jsonable_null
+        from engine.jsonable import jsonable_null
 
         return {"loc": ["body"], "msg": str(self), "type": "limit_error",
                 "limit": self.limit, "value": jsonable_null(self.value),

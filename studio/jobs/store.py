@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Optional
 
-from ..jsonable import jsonable_null as jsonable  # strict JSON, non-finite as null
+from engine.jsonable import jsonable_null as jsonable  # strict JSON, non-finite as null
 
 STATUSES = ("queued", "running", "completed", "stopped", "failed", "cancelled")
 FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
