@@ -27,7 +27,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .beam_theory import rod_frequency
+from .beam_theory import circle_second_moment, rod_frequency
 from .contact_law import SLIP_EACH_STEP, SLIP_FROZEN
 from .run import run_steps
 
@@ -68,8 +68,7 @@ def softest_bristle_stiffness(scene) -> float:
     k = math.inf
     for br in scene.brushes:
         E = scene.materials[br.material].youngs_modulus
-        inertia = math.pi * br.tip_radius ** 4 / 4.0
-        k = min(k, 3.0 * E * inertia / br.bristle_length ** 3)
+        k = min(k, 3.0 * E * circle_second_moment(br.tip_radius) / br.bristle_length ** 3)
     return k
 
 

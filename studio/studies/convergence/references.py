@@ -8,7 +8,7 @@ from typing import Optional
 
 import numpy as np
 
-from engine.beam_theory import rod_frequency
+from engine.beam_theory import circle_second_moment, rod_frequency
 
 from .quantities import Quantity, _quat_matrix
 
@@ -34,7 +34,7 @@ def tapered_elastica_tip(length: float, youngs_modulus: float, root_radius: floa
     from scipy.integrate import solve_bvp
 
     r0, r1 = root_radius, tip_radius
-    i0 = math.pi * r0 ** 4 / 4.0
+    i0 = circle_second_moment(r0)
     scale = length ** 2 / (youngs_modulus * i0)
 
     def radius(u):
