@@ -19,7 +19,7 @@ from studio.studies import convergence as cv
 from studio.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "engine"))
-import analytic  # noqa: E402  (tests/engine/analytic.py: closed forms, no engine inside)
+import analytic  # noqa: E402  (tests/engine/analytic.py: closed forms, no engine model inside)
 
 ALONG_X = [math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0]
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
