@@ -103,7 +103,10 @@ def peak_frequencies(time: np.ndarray, signal: np.ndarray, n_peaks: int) -> np.n
     duration = len(time) * float(time[1] - time[0])
     peaks = spectral_peaks(freq, psd, duration, max_peaks=n_peaks)
     if len(peaks) < n_peaks:
-        raise ValueError(f"the spectrum has {len(peaks)} peak(s), {n_peaks} needed")
+        raise ValueError(
+            f"the spectrum has {len(peaks)} peak(s), {n_peaks} needed (a peak must lie above "
+            f"{LOBE_BINS / duration:.3g} Hz, {LOBE_BINS:g} periods in the {duration:.3g} s "
+            "record, and stand out of the larger peaks' skirts: record longer)")
     return np.array([p["frequency_hz"] for p in peaks])
 
 

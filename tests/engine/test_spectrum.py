@@ -84,6 +84,10 @@ def test_asking_for_more_peaks_than_there_are_is_an_error():
     t = np.arange(0.0, 2.0, 1e-3)
     with pytest.raises(ValueError, match="1 peak"):
         spectrum.peak_frequencies(t, np.sin(2 * math.pi * 10.0 * t), 2)
+    # a tone of fewer than 4 periods in the record is inside the zero-frequency lobe: the
+    # message says how low a peak may lie (4 / 2 s = 2 Hz)
+    with pytest.raises(ValueError, match="above 2 Hz"):
+        spectrum.peak_frequencies(t, np.sin(2 * math.pi * 1.5 * t), 1)
     with pytest.raises(ValueError, match="too few"):
         spectrum.power_spectrum(t[:10], t[:10])
 
