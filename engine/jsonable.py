@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Optional
 
 
 def jsonable(value: Any, nonfinite: str = "text") -> Any:
@@ -40,6 +40,16 @@ def jsonable_null(value: Any) -> Any:
     """:func:`jsonable` with non-finite floats as null: what the HTTP API and the job
     database hold."""
     return jsonable(value, nonfinite="null")
+
+
+def finite_or_none(value: Any) -> Optional[float]:
+    """``value`` as a finite float, or None (JSON null) when it is not a number (a CSV
+    cell, a missing field) or not finite: what a chart plots and a job's row stores."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
 
 
 def json_text(value: Any, nonfinite: str = "text", **dumps) -> str:

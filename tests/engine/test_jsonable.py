@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from engine.errors import SceneError
-from engine.jsonable import json_text, jsonable, jsonable_null
+from engine.jsonable import finite_or_none, json_text, jsonable, jsonable_null
 
 
 def _strict_loads(text: str):
@@ -69,3 +69,12 @@ def test_unknown_objects_become_their_text():
     assert jsonable({"t": Thing()}) == {"t": "a thing"}
     with pytest.raises(TypeError):  # without the conversion, json refuses it
         json.dumps({"t": Thing()})
+
+
+def test_finite_or_none_reads_numbers_and_refuses_the_rest():
+    # CSV cells and JSON fields: a number (text or numpy) reads as itself; text that is no
+    # number, a missing cell, and the non-finite values are None (a chart skips the point)
+    assert finite_or_none("2.5e-3") == 2.5e-3 and finite_or_none(np.float32(0.5)) == 0.5
+    assert finite_or_none(7) == 7.0 and isinstance(finite_or_none(7), float)
+    for bad in ("", "n/a", None, [1.0], "nan", "inf", math.nan, -math.inf):
+        assert finite_or_none(bad) is None, bad
