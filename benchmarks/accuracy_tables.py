@@ -51,6 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import engine  # noqa: E402
+from engine.beam_theory import circle_second_moment  # noqa: E402
 from studio.studies import convergence as cv  # noqa: E402
 
 PRESETS = ROOT / "static_presets"
@@ -83,7 +84,7 @@ def cone_scene(load_parameter: float) -> dict:
     b = d["brushes"][0]
     b.update(material="silicone", bristle_length=brush["bristle_length"],
              root_radius=brush["root_radius"], tip_radius=brush["tip_radius"])
-    ei_root = silicone["youngs_modulus"] * math.pi * brush["root_radius"] ** 4 / 4
+    ei_root = silicone["youngs_modulus"] * circle_second_moment(brush["root_radius"])
     d["loads"][0]["force"] = [0.0, 0.0, -load_parameter * ei_root / brush["bristle_length"] ** 2]
     return d
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .jsonable import jsonable
+
 
 class BrushStudioError(Exception):
     """Base class of every error the engine raises on purpose."""
@@ -39,20 +41,8 @@ class SceneError(BrushStudioError, ValueError):
         return cls([FieldProblem(field, value, allowed)])
 
     def as_dicts(self) -> list[dict]:
-        return [{"field": p.field, "value": _jsonable(p.value), "allowed": p.allowed}
+        return [{"field": p.field, "value": jsonable(p.value), "allowed": p.allowed}
                 for p in self.problems]
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, (str, int, bool)) or value is None:
-        return value
-    if isinstance(value, float):
-        return value if value == value and abs(value) != float("inf") else str(value)
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    return repr(value)
 
 
 class InstabilityError(BrushStudioError, RuntimeError):

@@ -27,6 +27,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .beam_theory import circle_second_moment, rod_frequency
 from .contact_law import SLIP_EACH_STEP, SLIP_FROZEN
 from .run import run_steps
 
@@ -67,8 +68,7 @@ def softest_bristle_stiffness(scene) -> float:
     k = math.inf
     for br in scene.brushes:
         E = scene.materials[br.material].youngs_modulus
-        inertia = math.pi * br.tip_radius ** 4 / 4.0
-        k = min(k, 3.0 * E * inertia / br.bristle_length ** 3)
+        k = min(k, 3.0 * E * circle_second_moment(br.tip_radius) / br.bristle_length ** 3)
     return k
 
 
@@ -81,15 +81,13 @@ def kinetic_tolerance_for(scene, force_tolerance: float) -> float:
 
 def lowest_bristle_period(scene) -> float:
     """Period of the first cantilever mode of the slowest bristle, s (Euler-Bernoulli with
-    the mean radius: 1.8751^2 sqrt(E I / (rho A L^4))); used to space the checks."""
+    the mean radius, :func:`engine.beam_theory.rod_frequency`); used to space the checks."""
     period = 0.0
     for br in scene.brushes:
         mat = scene.materials[br.material]
         r = 0.5 * (br.root_radius + br.tip_radius)
-        omega = 1.8751 ** 2 * math.sqrt(mat.youngs_modulus * (math.pi * r ** 4 / 4)
-                                        / (mat.density * math.pi * r * r
-                                           * br.bristle_length ** 4))
-        period = max(period, 2.0 * math.pi / omega)
+        f = rod_frequency(1, br.bristle_length, mat.youngs_modulus, r, mat.density)
+        period = max(period, 1.0 / f)
     return period
 
 

@@ -35,16 +35,16 @@ Killed-run safety (SIGKILL, not power loss)
 from __future__ import annotations
 
 import datetime as _dt
-import json
-import math
 import os
 import traceback
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import h5py
 import numpy as np
 from h5py import h5f, h5p
+
+from .jsonable import json_text
 
 FORMAT = "brush-studio-result"
 FORMAT_VERSION = 1
@@ -57,30 +57,6 @@ CHUNK_TARGET_BYTES = 1 << 20   # ~1 MiB chunks for the big per-frame channels
 MAX_CHUNK_ROWS = 1024          # scalar series: 8 KiB chunks, not 1 MiB of mostly empty space
 _MAX_COMPACT_ATTRS = 1000      # keep root attributes in the root object header (no dense storage)
 _MAX_FIXED_TEXT = 32 * 1024    # longest fixed-length text attribute (header messages < 64 KiB)
-
-
-def json_text(value: Any) -> str:
-    """Strict JSON text (no NaN/Infinity tokens; non-finite floats become strings, numpy
-    scalars and arrays become numbers and lists)."""
-    return json.dumps(_jsonable(value), allow_nan=False)
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else str(value)
-    if isinstance(value, (str, int, bool)) or value is None:
-        return value
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, Path):
-        return str(value)
-    return repr(value)
 
 
 def _attr_value(name: str, value: Any) -> Any:

@@ -12,7 +12,6 @@ another engine error), 2 bad input (an invalid scene, a bad command line), 130 c
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import signal
 import sys
@@ -23,7 +22,7 @@ from typing import Optional
 from . import __version__, app, serve_cli
 from .console import err as _err, print_scene_error as _print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
-from .jsonable import jsonable
+from engine.jsonable import json_text
 from .presets import demo_scene_text
 from .studies import cli as studies_cli
 from .studies import convergence, dissipation
@@ -42,7 +41,7 @@ def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n")
+    path.write_text(json_text(data, indent=2) + "\n")
 
 
 def _fmt_seconds(s) -> str:

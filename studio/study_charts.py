@@ -14,6 +14,8 @@ import time
 from pathlib import Path
 from typing import Optional
 
+from engine.jsonable import finite_or_none
+
 HEIGHT = 340              # px of one chart in the side panel
 MAX_SERIES = 12           # traces in one chart (more runs: the first ones)
 
@@ -22,14 +24,6 @@ def read_csv(path: Path) -> list[dict]:
     """Rows of a CSV file as dicts of text."""
     with open(path, newline="") as fh:
         return list(csv.DictReader(fh))
-
-
-def _float(text) -> Optional[float]:
-    try:
-        x = float(text)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
 
 
 def _layout(fig, title: str, x: str, y: str, legend: bool = True) -> None:
@@ -47,7 +41,7 @@ def force_depth_figure(rows: list[dict]):
 
     series: dict[tuple, tuple[list, list]] = {}
     for r in rows:
-        d, f = _float(r.get("depth_m")), _float(r.get("force_N"))
+        d, f = finite_or_none(r.get("depth_m")), finite_or_none(r.get("force_N"))
         if d is None or f is None:
             continue
         run = r.get("run_id") or (f"{r['angle_deg']} deg" if r.get("angle_deg") else "")
@@ -71,7 +65,7 @@ def omega_figure(rows: list[dict]):
 
     series: dict[str, tuple[list, list]] = {}
     for r in rows:
-        t, w = _float(r.get("time")), _float(r.get("omega"))
+        t, w = finite_or_none(r.get("time")), finite_or_none(r.get("omega"))
         if t is None or w is None:
             continue
         xs, ys = series.setdefault(r.get("run_id") or "run", ([], []))
@@ -89,8 +83,8 @@ def refinement_figure(rows: list[dict]):
     bristle, wall time on a second axis."""
     import plotly.graph_objects as go
 
-    pts = [(_float(r.get("nodes_per_bristle")), _float(r.get("force_N")),
-            _float(r.get("wall_s"))) for r in rows]
+    pts = [(finite_or_none(r.get("nodes_per_bristle")), finite_or_none(r.get("force_N")),
+            finite_or_none(r.get("wall_s"))) for r in rows]
     pts = [p for p in pts if p[0] is not None]
     fig = go.Figure()
     fig.add_scatter(x=[p[0] for p in pts], y=[p[1] for p in pts], mode="lines+markers",

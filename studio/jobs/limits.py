@@ -14,6 +14,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Optional
 
+from engine.jsonable import jsonable_null
+
 
 @dataclass(frozen=True)
 class Limits:
@@ -47,8 +49,6 @@ class LimitError(ValueError):
         self.status, self.retry_after = status, retry_after
 
     def as_dict(self) -> dict:
-        from ..jsonable import jsonable_null
-
         return {"loc": ["body"], "msg": str(self), "type": "limit_error",
                 "limit": self.limit, "value": jsonable_null(self.value),
                 "allowed": jsonable_null(self.allowed)}

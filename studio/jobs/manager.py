@@ -20,13 +20,14 @@ import uuid
 from pathlib import Path
 from typing import Optional, Union
 
+from engine.jsonable import finite_or_none
+
 from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
 from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
 from .quota import StorageQuota
-from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, _finite, jsonable,
-                    storage_reason)
+from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, jsonable, storage_reason)
 from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
 
 #: below this much free space in the data folder, submits are refused (507) and health says
@@ -147,7 +148,7 @@ class JobManager:
             self._create_job(job_id, {"scene.json": scene_json + "\n"},
                              "INSERT INTO jobs (id, name, status, created, until, scene, "
                              "estimate, idempotency_key) VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
-                             (job_id, name, time.time(), _finite(scene.run.duration),
+                             (job_id, name, time.time(), finite_or_none(scene.run.duration),
                               scene_json, json.dumps(jsonable(cost.as_dict())),
                               idempotency_key))
         except _DuplicateKey:

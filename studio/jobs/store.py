@@ -8,7 +8,6 @@ on). The schema grows by columns: an older database gets the new ones when it is
 from __future__ import annotations
 
 import json
-import math
 import re
 import sqlite3
 import threading
@@ -17,7 +16,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Optional
 
-from ..jsonable import jsonable_null as jsonable  # strict JSON, non-finite as null
+from engine.jsonable import finite_or_none
+from engine.jsonable import jsonable_null as jsonable  # strict JSON, non-finite as null
 
 STATUSES = ("queued", "running", "completed", "stopped", "failed", "cancelled")
 FINAL_STATUSES = frozenset({"completed", "stopped", "failed", "cancelled"})
@@ -118,14 +118,6 @@ CREATE TABLE IF NOT EXISTS meshes (
     info TEXT NOT NULL
 );
 """
-
-
-def _finite(x) -> Optional[float]:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
 
 
 class JobStore:
@@ -252,7 +244,7 @@ class JobStore:
             if k in _JSON_COLUMNS:
                 v = json.dumps(jsonable(v))
             elif isinstance(v, float):
-                v = _finite(v)
+                v = finite_or_none(v)
             cols.append(f"{k} = ?")
             args.append(v)
         with self.lock:

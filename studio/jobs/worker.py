@@ -268,7 +268,8 @@ def finalize_killed_result(path: Path, status: str, message: str) -> bool:
     leaves the file as it is; ``engine.open_result`` reads it) when it cannot."""
     import h5py
 
-    from engine.recorder import _text, json_text
+    from engine.jsonable import json_text
+    from engine.recorder import _text
 
     path = Path(path)
     if not path.is_file():

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Optional
 
-from ..jsonable import jsonable_null as _json
+from engine.jsonable import jsonable_null as _json
 from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge
 
 

@@ -41,6 +41,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from engine.beam_theory import rod_frequency
+from engine.spectrum import (  # noqa: F401  (part of this study's API)
+    match_modes, power_spectrum, spectral_peaks, uniform_part)
+
 from . import api
 from .api import ExecutionOptions, StudyResult
 
@@ -70,93 +74,14 @@ def cantilever_frequencies(length: float = ROD_LENGTH, radius: float = ROD_RADIU
                            youngs_modulus: float = STEEL["youngs_modulus"],
                            density: float = STEEL["density"], n_modes: int = 3) -> list[float]:
     """Euler-Bernoulli bending frequencies (Hz) of a uniform clamped-free rod:
-    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`studio.studies.reference`)."""
-    from .reference import cantilever_frequencies as frequencies
-
-    return frequencies(length, radius, youngs_modulus, density, n_modes)
+    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`engine.beam_theory`)."""
+    return [rod_frequency(n, length, youngs_modulus, radius, density)
+            for n in range(1, n_modes + 1)]
 
 
 # ----------------------------------------------------------------------------- spectra
-def uniform_part(time: np.ndarray, *signals: np.ndarray):
-    """The leading uniformly sampled part of a recording (a run records its last frame at
-    the end time, usually off the regular grid): ``(time, *signals)`` cut there."""
-    time = np.asarray(time, float)
-    steps = np.diff(time)
-    if steps.size == 0:
-        return (time, *signals)
-    dt = float(np.median(steps))
-    off = np.flatnonzero(np.abs(steps - dt) > 1e-6 * dt)
-    n = int(off[0]) + 1 if off.size else len(time)
-    return (time[:n], *(np.asarray(s)[:n] for s in signals))
-
-
-def power_spectrum(time: np.ndarray, signal: np.ndarray, padding: int = 8
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided power spectral density (unit^2/Hz) of a uniformly sampled signal, mean
-    removed, 4-term Blackman-Harris window (side lobes below -92 dB, so a weak higher mode
-    is not hidden under the leakage of the first), zero-padded ``padding`` times."""
-    from scipy.signal.windows import blackmanharris
-
-    time, signal = uniform_part(time, signal)
-    if len(time) < 16:
-        raise ValueError(f"{len(time)} samples: too few for a spectrum")
-    dt = float(time[1] - time[0])
-    window = blackmanharris(len(signal), sym=False)
-    x = (np.asarray(signal, float) - np.mean(signal)) * window
-    n_fft = 1 << int(math.ceil(math.log2(padding * len(x))))
-    spec = np.fft.rfft(x, n_fft)
-    psd = (np.abs(spec) ** 2) * 2.0 * dt / float(np.sum(window ** 2))
-    psd[0] *= 0.5
-    return np.fft.rfftfreq(n_fft, dt), psd
-
-
-def spectral_peaks(freq: np.ndarray, psd: np.ndarray, duration: float, *,
-                   max_peaks: int = 8, floor: float = 1e-9) -> list[dict]:
-    """Peaks of a PSD from :func:`power_spectrum`: local maxima that are the largest within
-    ``+-max(20 % of f, 4 / duration)`` (4/T is the half width of the Blackman-Harris main
-    lobe, so side lobes never count) and above ``floor`` times the largest; frequency
-    refined by a parabola through the log-PSD at the peak bin and its neighbours. The
-    ``max_peaks`` largest, sorted by frequency: ``[{"frequency_hz", "psd"}]``."""
-    from scipy.signal import find_peaks
-
-    freq = np.asarray(freq, float)
-    psd = np.asarray(psd, float)
-    df = float(freq[1] - freq[0])
-    top = float(psd.max()) if psd.size else 0.0
-    if top <= 0:
-        return []
-    idx, _ = find_peaks(psd)
-    out = []
-    for i in idx:
-        f = freq[i]
-        half = max(0.2 * f, 4.0 / duration)
-        if f < 4.0 / duration or psd[i] < floor * top:
-            continue
-        sel = (freq >= f - half) & (freq <= f + half)
-        if psd[i] < psd[sel].max():
-            continue
-        a, b, c = np.log(np.maximum(psd[i - 1:i + 2], 1e-300))
-        den = a - 2.0 * b + c
-        shift = 0.5 * (a - c) / den if den != 0 else 0.0
-        out.append({"frequency_hz": float(f + shift * df), "psd": float(psd[i])})
-    out.sort(key=lambda p: -p["psd"])
-    return sorted(out[:max_peaks], key=lambda p: p["frequency_hz"])
-
-
-def match_modes(peaks: Sequence[dict], analytic: Sequence[float], window: float = 0.2
-                ) -> list[dict]:
-    """For each analytic frequency, the largest peak within ``window`` (relative) of it:
-    ``[{"mode", "analytic_hz", "measured_hz", "rel_error", "psd"}]`` (measured None when
-    no peak is there)."""
-    out = []
-    for n, fa in enumerate(analytic, start=1):
-        near = [p for p in peaks if abs(p["frequency_hz"] - fa) <= window * fa]
-        best = max(near, key=lambda p: p["psd"]) if near else None
-        out.append({"mode": n, "analytic_hz": fa,
-                    "measured_hz": best["frequency_hz"] if best else None,
-                    "rel_error": (best["frequency_hz"] / fa - 1.0) if best else None,
-                    "psd": best["psd"] if best else None})
-    return out
+# power_spectrum (Blackman-Harris PSD), spectral_peaks, match_modes and uniform_part are the
+# shared estimator of engine.spectrum, imported above
 
 
 def drive_response(time: np.ndarray, signal: np.ndarray, frequency: float, start: float

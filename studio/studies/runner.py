@@ -46,7 +46,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
-from ..jsonable import jsonable  # noqa: F401  (studies import it from here)
+from engine.jsonable import json_text, jsonable  # noqa: F401  (studies import jsonable from here)
 from . import api
 
 DEFAULT_TASK = "studio.studies.runner:plain_run"
@@ -110,7 +110,7 @@ def write_json_atomic(path: Path, data: Any) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(jsonable(data), indent=1, allow_nan=False) + "\n")
+    tmp.write_text(json_text(data, indent=1) + "\n")
     os.replace(tmp, path)
 
 

@@ -1,8 +1,11 @@
 """Closed-form and independently computed references for the physics verification tests.
 
-Nothing here imports the engine: every function is the textbook solution of a continuum
+Nothing here uses the engine's model: every function is the textbook solution of a continuum
 problem (Euler-Bernoulli beam, inextensible elastica), evaluated with scipy, so that a test
-compares the engine with physics rather than with itself. All quantities are SI.
+compares the engine with physics rather than with itself. The sections and the cantilever's
+bending frequencies come from :mod:`engine.beam_theory`, the one source the studies and
+benchmarks use too: pure ``math`` that imports nothing else of the engine (its roots are
+tested against brentq in ``test_beam_theory.py``). All quantities are SI.
 """
 from __future__ import annotations
 
@@ -13,16 +16,9 @@ import numpy as np
 from scipy.integrate import quad, solve_bvp
 from scipy.optimize import brentq
 
-
-# ------------------------------------------------------------------------------ sections
-def circle_area(radius: float) -> float:
-    """Area of a solid circular section, pi r^2."""
-    return math.pi * radius ** 2
-
-
-def circle_second_moment(radius: float) -> float:
-    """Second moment of area of a solid circular section about a diameter, pi r^4 / 4."""
-    return math.pi * radius ** 4 / 4.0
+# sections and Euler-Bernoulli frequencies: the shared closed forms, re-exported
+from engine.beam_theory import (  # noqa: F401
+    cantilever_beta_l, cantilever_frequencies, circle_area, circle_second_moment)
 
 
 # ------------------------------------------------------------------------------ statics
@@ -136,30 +132,6 @@ def elastica_tip_quadrature(load_parameter: float) -> tuple[float, float, float]
     x_tip = math.sqrt(2.0 * math.sin(theta0) / load_parameter)
     y_tip = length_integral(theta0, math.sin) / root_alpha
     return x_tip, y_tip, theta0
-
-
-# ------------------------------------------------------------------------------ dynamics
-def cantilever_beta_l(n_modes: int = 3) -> np.ndarray:
-    """The first roots beta_n L of the clamped-free Euler-Bernoulli frequency equation
-    cos(beta L) cosh(beta L) = -1 (1.8751, 4.6941, 7.8548, ...), by brentq."""
-    def f(b):
-        return math.cos(b) * math.cosh(b) + 1.0
-    roots = []
-    for n in range(1, n_modes + 1):
-        # the n-th root lies within (n - 1/2) pi +- 0.35: f changes sign there
-        centre = (n - 0.5) * math.pi
-        roots.append(brentq(f, centre - 1.3 if n == 1 else centre - 0.35, centre + 0.35,
-                            xtol=1e-14))
-    return np.array(roots)
-
-
-def cantilever_frequencies(length: float, youngs_modulus: float, second_moment: float,
-                           density: float, area: float, n_modes: int = 3) -> np.ndarray:
-    """Bending natural frequencies (Hz) of a uniform Euler-Bernoulli cantilever,
-    f_n = (beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))."""
-    bl = cantilever_beta_l(n_modes)
-    return bl ** 2 / (2.0 * math.pi) * math.sqrt(
-        youngs_modulus * second_moment / (density * area * length ** 4))
 
 
 # ------------------------------------------------------------------------------ contacts

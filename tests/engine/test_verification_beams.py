@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.integrate import quad
-from scipy.signal import find_peaks
 
 import engine
+from engine.spectrum import peak_frequencies
 
 import analytic  # tests/engine is on sys.path (pytest's rootdir-relative import of this file)
 
@@ -98,33 +98,6 @@ def assert_settled(time: np.ndarray, value: np.ndarray, scale: float) -> None:
 def quasi_static(ramp: float = 0.1) -> dict:
     """Load amplitude: a linear ramp from 0 to 1 over ``ramp`` seconds, then held."""
     return {"times": [0.0, ramp], "values": [0.0, 1.0]}
-
-
-def spectral_peaks(time: np.ndarray, signal: np.ndarray, n_peaks: int,
-                   padding: int = 16) -> np.ndarray:
-    """Frequencies (Hz, ascending) of the ``n_peaks`` largest peaks of the amplitude spectrum
-    of a uniformly sampled signal: Hann window, zero padding to ``padding`` times the length,
-    then a parabola through the log-magnitude at the peak bin and its two neighbours (for a
-    Gaussian-like lobe this puts the peak within a small fraction of a padded bin)."""
-    steps = np.diff(time)
-    dt = float(steps[0])
-    # the run records its last frame at the end time, usually off the regular grid: drop it
-    off_grid = np.flatnonzero(np.abs(steps - dt) > 1e-6 * dt)
-    n_uniform = int(off_grid[0]) + 1 if off_grid.size else len(time)
-    assert n_uniform > 0.99 * len(time), "the signal must be sampled uniformly"
-    signal = signal[:n_uniform]
-    x = (signal - signal.mean()) * np.hanning(len(signal))
-    n_fft = 1 << int(math.ceil(math.log2(padding * len(signal))))
-    mag = np.abs(np.fft.rfft(x, n_fft))
-    freq = np.fft.rfftfreq(n_fft, dt)
-    idx, _ = find_peaks(mag)
-    idx = np.sort(idx[np.argsort(mag[idx])[::-1][:n_peaks]])
-    out = []
-    for i in idx:
-        a, b, c = np.log(mag[i - 1:i + 2])
-        shift = 0.5 * (a - c) / (a - 2.0 * b + c)
-        out.append(freq[i] + shift * (freq[1] - freq[0]))
-    return np.array(out)
 
 
 def observed_order(n_nodes: list[int], errors: list[float]) -> np.ndarray:
@@ -360,9 +333,10 @@ def test_steel_rod_bending_frequencies(tmp_path):
                              local_damping=0.0)
     _, time, tip = run_tip(scene, tmp_path / "run.h5")
     free = time > 0.002
-    measured = spectral_peaks(time[free], tip[free, 2], 3)
+    measured = peak_frequencies(time[free], tip[free, 2], 3)
     # 2 %: lumped node masses lower every frequency by O(h^2) (at 16 nodes: -0.20 %, -0.71 %,
-    # -1.16 %); the spectral estimate itself is good to ~1e-4 over 2 s (12 periods of mode 1)
+    # -1.16 %); the spectral estimate itself is good to ~1e-4 over 2 s (12 periods of mode 1;
+    # tests/engine/test_spectrum.py)
     np.testing.assert_allclose(measured, ref, rtol=0.02)
     # lumped mass errs low, never high
     assert np.all(measured < ref)

@@ -19,7 +19,7 @@ from studio.studies import convergence as cv
 from studio.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "engine"))
-import analytic  # noqa: E402  (tests/engine/analytic.py: closed forms, no engine inside)
+import analytic  # noqa: E402  (tests/engine/analytic.py: closed forms, no engine model inside)
 
 ALONG_X = [math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0]
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
@@ -204,7 +204,7 @@ def test_spectral_peaks_of_a_known_signal():
     signal = 1.0 * np.sin(2 * np.pi * 6.35 * t) + 0.05 * np.sin(2 * np.pi * 39.8 * t + 0.3) \
         + 0.01 * np.sin(2 * np.pi * 111.5 * t + 1.0)
     peaks = cv.spectral_peaks(t, signal, 3)
-    # 0.02 Hz: the interpolated peak of a Hann-windowed, 16x padded 4 s record is good to a
+    # 0.02 Hz: the interpolated peak of a Blackman-Harris-windowed, 8x padded 4 s record is good to a
     # small fraction of the 0.25 Hz bin; the side lobes of the strong 6.35 Hz line (100x the
     # weakest) must not be taken for peaks
     assert peaks == pytest.approx([6.35, 39.8, 111.5], abs=0.02)

@@ -33,8 +33,7 @@ from .quantities import (  # noqa: F401
     _quat_matrix, _spinning_body, _stepped_body, _transverse, _wedge_force, check_measurable,
     contact_episodes, first_contact_end, measure, parse_quantity, spectral_peaks)
 from .references import (  # noqa: F401
-    Reference, _amplitude, analytic_reference, cantilever_beta_l, cantilever_frequency,
-    tapered_elastica_tip)
+    Reference, _amplitude, analytic_reference, tapered_elastica_tip)
 from .ladder import (  # noqa: F401
     Level, level_resolution, make_levels, parse_factors, parse_ladder)
 from .table import (  # noqa: F401

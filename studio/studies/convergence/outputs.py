@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.jsonable import json_text
+
 from .quantities import CSV_COLUMNS, FORMAT, TOLERANCES
 from .table import ConvergenceTable
 
@@ -34,7 +36,7 @@ def write_outputs(table: ConvergenceTable, out_dir, scene_json: str = "") -> Non
     tmp.replace(out_dir / "convergence.csv")
     data = {"format": FORMAT, "format_version": 1, **table.to_dict()}
     tmp = out_dir / ".convergence.json.tmp"
-    tmp.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
+    tmp.write_text(json_text(data, "null", indent=1) + "\n")
     tmp.replace(out_dir / "convergence.json")
     tmp = out_dir / ".convergence.h5.tmp"
     with h5py.File(tmp, "w") as f:
@@ -66,7 +68,7 @@ def write_outputs(table: ConvergenceTable, out_dir, scene_json: str = "") -> Non
         if table.setting:  # a loading ladder: its setting's name and value per level
             g.attrs["setting"] = table.setting
             g.create_dataset("setting", data=col("setting"))
-        g.attrs["analysis"] = json.dumps(data, allow_nan=False)
+        g.attrs["analysis"] = json_text(data, "null")
         g.attrs["scene"] = scene_json
     tmp.replace(out_dir / "convergence.h5")
     plot_convergence(table, out_dir / "convergence.png")

@@ -10,6 +10,7 @@ from typing import Optional
 
 import numpy as np
 
+from engine.spectrum import peak_frequencies, uniform_part
 
 CSV_COLUMNS = ("level", "n_nodes", "dt", "quantity", "error", "wall_s")
 TOLERANCES = (0.01, 0.05)
@@ -159,44 +160,24 @@ def _transverse(tip: np.ndarray, root0: np.ndarray) -> np.ndarray:
     return d - np.outer(d @ axis, axis)
 
 
-def spectral_peaks(time: np.ndarray, signal: np.ndarray, n_peaks: int,
-                   padding: int = 16) -> np.ndarray:
-    """Frequencies (Hz, ascending) of the ``n_peaks`` largest peaks of the amplitude spectrum
-    of a uniformly sampled signal: Hann window, zero padding to ``padding`` x the length, peaks
-    at least 3 unpadded bins apart (which drops the window's side lobes: each lies within 3
-    bins of a larger lobe), then a parabola through the log-magnitude at the peak bin and its
-    two neighbours."""
-    from scipy.signal import find_peaks
-
+def spectral_peaks(time: np.ndarray, signal: np.ndarray, n_peaks: int) -> np.ndarray:
+    """Frequencies (Hz, ascending) of the ``n_peaks`` largest spectral peaks of a uniformly
+    sampled signal, by the shared estimator :func:`engine.spectrum.peak_frequencies`
+    (Blackman-Harris PSD, side lobes refused, parabolic refinement); ConvergenceError when
+    the record is too short, not sampled uniformly, or has fewer peaks."""
     time = np.asarray(time, float)
     signal = np.asarray(signal, float)
     if len(time) < 16:
         raise ConvergenceError(f"only {len(time)} frames to take a spectrum of: record more "
                                "often (run.record_interval) or longer")
-    steps = np.diff(time)
-    dt = float(np.median(steps))
-    # the run records its last frame at the end time, usually off the regular grid: drop it
-    off_grid = np.flatnonzero(np.abs(steps - dt) > 1e-6 * dt)
-    n_uniform = int(off_grid[0]) + 1 if off_grid.size else len(time)
-    if n_uniform < 0.99 * len(time) - 1:
+    # the run records its last frame at the end time, usually off the regular grid: that
+    # one is dropped; a record off the grid earlier is not a free vibration to analyse
+    if len(uniform_part(time)[0]) < 0.99 * len(time) - 1:
         raise ConvergenceError("the tip trajectory is not sampled uniformly")
-    signal = signal[:n_uniform]
-    x = (signal - signal.mean()) * np.hanning(len(signal))
-    n_fft = 1 << int(math.ceil(math.log2(padding * len(signal))))
-    mag = np.abs(np.fft.rfft(x, n_fft))
-    freq = np.fft.rfftfreq(n_fft, dt)
-    idx, _ = find_peaks(mag, distance=3 * n_fft // len(signal))
-    idx = idx[(idx > 0) & (idx < len(mag) - 1)]
-    if len(idx) < n_peaks:
-        raise ConvergenceError(f"the spectrum has {len(idx)} peak(s), {n_peaks} needed")
-    idx = np.sort(idx[np.argsort(mag[idx])[::-1][:n_peaks]])
-    out = []
-    for i in idx:
-        a, b, c = np.log(np.maximum(mag[i - 1:i + 2], 1e-300))
-        den = a - 2.0 * b + c
-        shift = 0.5 * (a - c) / den if den != 0 else 0.0
-        out.append(freq[i] + shift * (freq[1] - freq[0]))
-    return np.array(out)
+    try:
+        return peak_frequencies(time, signal, n_peaks)
+    except ValueError as exc:
+        raise ConvergenceError(str(exc)) from None
 
 
 def _free_after(scene) -> float:

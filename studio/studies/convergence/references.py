@@ -8,7 +8,8 @@ from typing import Optional
 
 import numpy as np
 
-from ..reference import cantilever_beta_l, cantilever_frequency  # noqa: F401  (re-exported)
+from engine.beam_theory import circle_second_moment, rod_frequency
+
 from .quantities import Quantity, _quat_matrix
 
 
@@ -33,7 +34,7 @@ def tapered_elastica_tip(length: float, youngs_modulus: float, root_radius: floa
     from scipy.integrate import solve_bvp
 
     r0, r1 = root_radius, tip_radius
-    i0 = math.pi * r0 ** 4 / 4.0
+    i0 = circle_second_moment(r0)
     scale = length ** 2 / (youngs_modulus * i0)
 
     def radius(u):
@@ -108,7 +109,7 @@ def analytic_reference(scene, quantity: Quantity) -> Optional[Reference]:
     if quantity.kind == "spectral_peak":
         if abs(brush.root_radius - brush.tip_radius) > 1e-12 * brush.root_radius:
             return None
-        f = cantilever_frequency(quantity.peak, L, E, brush.root_radius, rho)
+        f = rod_frequency(quantity.peak, L, E, brush.root_radius, rho)
         return Reference(f, "analytic", f"Euler-Bernoulli cantilever mode {quantity.peak}: "
                          f"(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4)) = {f:.6g} Hz")
     axis = _quat_matrix(brush.base.orientation) @ np.array([0.0, 0.0, 1.0])

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 from typing import Optional, Sequence
 
-from ...jsonable import jsonable_null as _json_null
+from engine.jsonable import jsonable_null as _json_null
 from .quantities import ConvergenceError, Quantity, check_measurable, measure, parse_quantity
 from .references import analytic_reference
 from .ladder import Level, make_levels

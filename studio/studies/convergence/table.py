@@ -9,7 +9,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ...jsonable import jsonable_null as _json_null
+from engine.jsonable import jsonable_null as _json_null
 from .quantities import ConvergenceError, Quantity, TOLERANCES
 from .references import Reference
 from .ladder import Level, level_resolution
