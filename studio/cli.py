@@ -21,6 +21,7 @@ from typing import Optional
 
 from . import __version__, app, serve_cli
 from .console import err as _err, print_scene_error as _print_scene_error
+from .fmt import fmt_rate, fmt_seconds
 from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from engine.jsonable import json_text
 from .presets import demo_scene_text
@@ -44,29 +45,6 @@ def _write_summary(path: Path, summary: dict, result_path) -> None:
     path.write_text(json_text(data, indent=2) + "\n")
 
 
-def _fmt_seconds(s) -> str:
-    if not isinstance(s, (int, float)) or not math.isfinite(s):
-        return "?"
-    if s <= 0:
-        return "0 s"
-    if s < 1e-3:
-        return f"{s * 1e6:.0f} us"
-    if s < 1:
-        return f"{s * 1e3:.0f} ms"
-    if s < 120:
-        return f"{s:.2f} s"
-    return f"{int(s // 60)} min {s % 60:02.0f} s"
-
-
-def _fmt_rate(x) -> str:
-    if not isinstance(x, (int, float)) or not math.isfinite(x):
-        return "?"
-    for div, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
-        if abs(x) >= div:
-            return f"{x / div:.3g}{suffix}"
-    return f"{x:.3g}"
-
-
 def summary_table(summary: dict, result_path=None) -> str:
     """The run summary as a short aligned table (the text ``run`` and ``info`` print)."""
     rows: list[tuple[str, str]] = []
@@ -88,16 +66,16 @@ def summary_table(summary: dict, result_path=None) -> str:
     if "steps" in summary:
         rows.append(("steps", f"{summary['steps']:,}"))
     if "wall_s" in summary:
-        wall = _fmt_seconds(summary["wall_s"])
+        wall = fmt_seconds(summary["wall_s"])
         compiled = summary.get("compile_s")
         if isinstance(compiled, (int, float)) and compiled >= 0.5:
-            wall += (f"  (of which {_fmt_seconds(compiled)} compiling the engine: not in the "
+            wall += (f"  (of which {fmt_seconds(compiled)} compiling the engine: not in the "
                      f"speed nor the stages)")
         rows.append(("wall time", wall))
     if "node_steps_per_s" in summary:
-        speed = f"{_fmt_rate(summary['node_steps_per_s'])} node-steps/s"
+        speed = f"{fmt_rate(summary['node_steps_per_s'])} node-steps/s"
         if "steps_per_s" in summary:
-            speed += f" ({_fmt_rate(summary['steps_per_s'])} steps/s"
+            speed += f" ({fmt_rate(summary['steps_per_s'])} steps/s"
             if "n_nodes" in summary:
                 speed += f", {summary['n_nodes']:,} nodes"
             speed += ")"
@@ -110,7 +88,7 @@ def summary_table(summary: dict, result_path=None) -> str:
         for name, wall in stages.items():
             share = f"{100 * wall / total:5.1f} %" if isinstance(wall, (int, float)) else ""
             rows.append(("stages" if first else "",
-                         f"{name:<{width}}  {_fmt_seconds(wall):>9}  {share}"))
+                         f"{name:<{width}}  {fmt_seconds(wall):>9}  {share}"))
             first = False
     warnings = summary.get("warnings") or []
     rows.append(("warnings", "none" if not warnings else warnings[0]))
@@ -159,8 +137,8 @@ class _ProgressBar:
         self.last = (now, p.steps)
         self.bar.n = max(min(p.time - self.start, self.bar.total), 0.0)
         if self.rate:
-            eta = _fmt_seconds(max(p.total_steps - p.steps, 0) / self.rate)
-            self.postfix = f"{_fmt_rate(self.rate)} steps/s, ETA {eta}"
+            eta = fmt_seconds(max(p.total_steps - p.steps, 0) / self.rate)
+            self.postfix = f"{fmt_rate(self.rate)} steps/s, ETA {eta}"
         else:
             self.postfix = "measuring speed"
         self.bar.set_postfix_str(self.postfix, refresh=False)

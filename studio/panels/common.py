@@ -1,7 +1,7 @@
 """What every panel shares: display constants, number and text formatting for the page."""
 from __future__ import annotations
 
-import math
+from ..fmt import fmt_rate as _fmt_rate, fmt_seconds  # noqa: F401 (_fmt_rate: the panels' name)
 
 STREAM_HZ = 20.0          # at most this many live frames per second into the view
 POLL_S = 0.1              # job polling period
@@ -13,22 +13,7 @@ COLOR_MODES = ("bending moment", "deflection", "none")
 
 
 def _fmt_s(s) -> str:
-    if s is None or not isinstance(s, (int, float)) or not math.isfinite(s):
-        return "?"
-    if s < 1:
-        return f"{s * 1e3:.0f} ms"
-    if s < 120:
-        return f"{s:.1f} s"
-    return f"{int(s // 60)} min {s % 60:02.0f} s"
-
-
-def _fmt_rate(x) -> str:
-    if x is None or not isinstance(x, (int, float)) or not math.isfinite(x):
-        return "?"
-    for div, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
-        if abs(x) >= div:
-            return f"{x / div:.3g}{suffix}"
-    return f"{x:.3g}"
+    return fmt_seconds(s, decimals=1)
 
 
 def _fmt_value(value) -> str:
