@@ -106,6 +106,13 @@ def cw_apply(cf, x, y, z, vx, vy, vz):
     return nx, ny, nz, nvx, nvy, nvz
 
 
+@njit(cache=True, inline="always")
+def cw_apply_row(cf, pos, vel, k):
+    """:func:`cw_apply` to row ``k`` of a position and a velocity array, in place."""
+    (pos[k, 0], pos[k, 1], pos[k, 2], vel[k, 0], vel[k, 1], vel[k, 2]) = cw_apply(
+        cf, pos[k, 0], pos[k, 1], pos[k, 2], vel[k, 0], vel[k, 1], vel[k, 2])
+
+
 @njit(cache=True)
 def cw_flow(n, tau, state):
     """Closed-form CW solution: the state (x, y, z, vx, vy, vz) after tau (a new array)."""
@@ -128,14 +135,7 @@ def _kick_drift_cw(n_, x, v, q, w, f, t, inv_mass, inv_inertia, dt, cf, ch, sh):
         return
     for a in range(3):
         v[n_, a] += h * f[n_, a] * im
-    x0, x1, x2, v0, v1, v2 = cw_apply(cf, x[n_, 0], x[n_, 1], x[n_, 2], v[n_, 0], v[n_, 1],
-                                      v[n_, 2])
-    x[n_, 0] = x0
-    x[n_, 1] = x1
-    x[n_, 2] = x2
-    v[n_, 0] = v0
-    v[n_, 1] = v1
-    v[n_, 2] = v2
+    cw_apply_row(cf, x, v, n_)
     ii = inv_inertia[n_]
     w0 = w[n_, 0] + h * t[n_, 0] * ii
     w1 = w[n_, 1] + h * t[n_, 1] * ii
@@ -170,14 +170,7 @@ def cw_drift_body(k, pos, v, L, q, dt, n):
     """Exact CW flow of body k's centre over dt and the frame's turn of its momentum and
     orientation (the torque-free rotation is done by the caller; the two commute)."""
     cf = cw_coefficients(n, dt)
-    x0, x1, x2, v0, v1, v2 = cw_apply(cf, pos[k, 0], pos[k, 1], pos[k, 2], v[k, 0], v[k, 1],
-                                      v[k, 2])
-    pos[k, 0] = x0
-    pos[k, 1] = x1
-    pos[k, 2] = x2
-    v[k, 0] = v0
-    v[k, 1] = v1
-    v[k, 2] = v2
+    cw_apply_row(cf, pos, v, k)
     c = math.cos(n * dt)
     s = math.sin(n * dt)
     L[k, 0], L[k, 1] = _turn_z(c, -s, L[k, 0], L[k, 1])
