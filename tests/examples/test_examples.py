@@ -10,6 +10,7 @@ import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -28,11 +29,21 @@ def run_example(name: str, out_dir: Path) -> str:
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get(
         "PYTHONPATH", "").split(os.pathsep) if p])
     env["MPLBACKEND"] = "Agg"
-    proc = subprocess.run([sys.executable, str(EXAMPLES / name), str(out_dir)], cwd=ROOT,
-                          env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+    # a session of its own: on a timeout the whole group goes, with the server or the Dask
+    # workers the example started (a killed example cannot stop them itself)
+    proc = subprocess.Popen([sys.executable, str(EXAMPLES / name), str(out_dir)], cwd=ROOT,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate(timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        stdout, stderr = proc.communicate()
+        pytest.fail(f"{name} ran over {TIMEOUT_S} s\n--- stdout\n{stdout}\n--- stderr\n"
+                    f"{stderr}")
     assert proc.returncode == 0, (f"{name} exited {proc.returncode}\n--- stdout\n"
-                                  f"{proc.stdout}\n--- stderr\n{proc.stderr}")
-    return proc.stdout
+                                  f"{stdout}\n--- stderr\n{stderr}")
+    return stdout
 
 
 def number(pattern: str, text: str) -> float:
