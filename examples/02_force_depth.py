@@ -8,9 +8,9 @@ HDF5 result file; ``engine.open_result`` reads it back: the wedge's position giv
 its contact force the load the brush puts on it. The curve is plotted to a PNG and the force
 at the end of each step's dwell is printed.
 
-This is the preset's dynamic protocol with short dwells, so the printed forces still carry
-some of the bristles' ringing; ``brush-studio study wedge`` holds each step until the brush
-is in equilibrium (docs/studies.md).
+This is the preset's dynamic protocol (a 50 ms dwell after each step), so the printed
+forces still carry some of the bristles' ringing; ``brush-studio study wedge`` holds each
+step until the brush is in equilibrium (docs/studies.md).
 
 Run it from the repository root, with the package installed (``pip install -e .``)::
 

@@ -4,10 +4,11 @@
 The mission preset ``static_presets/detumble_upper_stage.json`` (docs/mission.md): a
 130 kg cylindrical upper stage spins at 10 deg/s in a 400 km orbit; a chaser, held at a
 fixed offset by its controller, rubs the stage's side with a silicone brush until the spin
-is gone. The preset takes minutes (85 bristles, 12 s); this example keeps its bodies,
-orbit and controller but gives the brush 2 x 17 bristles of 3 nodes and runs 4 s: the
-approach, the first touch (at about 0.8 s) and the start of the spin-down. It prints the
-stage's angular speed |omega| against time and the change over the run.
+is gone. The preset costs about a minute of CPU (85 bristles, detumbled at 11.2 s); this
+example keeps its bodies, orbit and controller but gives the brush 2 x 17 bristles of 3
+nodes and runs 4 s: the approach, the first touch (at about 0.8 s) and the start of the
+spin-down. It prints the stage's angular speed |omega| against time and the change over
+the run.
 ``brush-studio study detumble`` sweeps such runs (spin rate, target size, brush design).
 
 Run it from the repository root, with the package installed (``pip install -e .``)::
