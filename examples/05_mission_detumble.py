@@ -19,7 +19,6 @@ It writes ``OUT_DIR/detumble.h5`` and ``OUT_DIR/omega.csv`` (time, |omega| in de
 default OUT_DIR: ``./example_output/05_mission_detumble``).
 """
 import json
-import math
 import sys
 from pathlib import Path
 
