@@ -5,7 +5,7 @@ The public API is small::
 
     import engine
     scene = engine.load_scene("scene.json")        # or engine.parse_scene(dict_or_json)
-    system = engine.build(scene)                   # arrays + only the stages the scene needs
+    system = engine.build(scene)                   # arrays + flags switching on the stages it needs
     result = engine.run(system, output="run.h5", on_progress=print, cancel=event)
     with engine.open_result(result.path) as res:   # reader, also for files of killed runs
         t, f = res.time, res.series("brushes/brush/root_force")

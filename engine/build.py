@@ -1,7 +1,8 @@
-"""Build: turn a validated scene into flat arrays, assembling only the stages it needs.
+"""Build: turn a validated scene into flat arrays, and switch on only the stages it needs.
 
 ``build(scene) -> System``. The System owns the compiled state (``engine.state`` bundles), the
-list of assembled stages, the timestep and the element that limits it, and the names that map
+list of assembled stages (the ``Flags`` that switch the step loop's branches, named by
+``engine.state.STAGE_TABLE``), the timestep and the element that limits it, and the names that map
 array indices back to brushes, bristles, nodes and bodies.
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ from .mesh_contact import (contact_points, initial_overlap, mesh_contact_stiffne
                            pair_stiffness, point_contact_length)
 from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
 from .spec import Scene
-from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
+from .state import (ACC_SIZE, STAGES, assembled_stages, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
                     PairList,
                     Roots, Tables)
 from .timestep import BRISTLE_CONTACTS_PER_NODE, automatic_dt, equalizing_scales
@@ -762,6 +763,7 @@ def build(scene: Scene) -> System:
 
     flags = Flags(bonds=B > 0, bond_damping=bond_damped, bristle_bristle=bb_needed,
                   bristle_body=bbody_needed, body_body=bodybody_needed,
+                  mesh_mesh=meshmesh_needed,
                   friction_bristle=SLIP_EACH_STEP if fr_bb else NO_FRICTION,
                   friction_body=SLIP_EACH_STEP if fr_body else NO_FRICTION,
                   friction_body_body=SLIP_EACH_STEP if fr_bodybody else NO_FRICTION,
@@ -773,41 +775,7 @@ def build(scene: Scene) -> System:
                   external_loads=any(any(b.external_force) or any(b.external_torque)
                                      for b in scene.bodies))
     mission = _mission(scene, orbit_n, body_names, shape_to_body_list)
-    stages = []
-    if flags.bonds:
-        stages.append("bonds")
-    if flags.bond_damping:
-        stages.append("bond_damping")
-    if bb_needed or bbody_needed:
-        stages.append("neighbour_list")
-    if bb_needed:
-        stages.append("bristle_bristle_contacts")
-    if bbody_needed:
-        stages.append("bristle_body_contacts")
-    if bodybody_needed:
-        stages.append("body_body_contacts")
-    if meshmesh_needed:
-        stages.append("mesh_mesh_contacts")
-    if fr_bb or fr_body or fr_bodybody:
-        stages.append("tangential_history")
-    if rigid:
-        stages.append("rigid_bodies")
-    if mounted:
-        stages.append("mounted_roots")
-    if has_gravity:
-        stages.append("gravity")
-    if flags.loads:
-        stages.append("loads")
-    if flags.local_damping:
-        stages.append("local_damping")
-    if track_energy:
-        stages.append("energy_tracking")
-    if flags.orbit:
-        stages.append("orbit")
-    if flags.controllers:
-        stages.append("controllers")
-    if flags.external_loads:
-        stages.append("external_body_loads")
+    stages = assembled_stages(flags)
 
     limits = np.array([MAX_OVERLAP_RATIO, MAX_NODE_STEP_RATIO,
                        MAX_BODY_STEP_RATIO * (r_min if N else 1.0), skin, alpha])

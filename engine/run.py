@@ -27,7 +27,7 @@ from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HI
                     ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
                     FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE, FAIL_OVERLAP_BB,
                     FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK, OVERFLOW_BODY, OVERFLOW_PAIRS,
-                    STAGES)
+                    STAGES, timed_slots)
 from .stepper import advance
 
 ENERGY_BALANCE_LIMIT = 1.0  # |drift of (total + dissipated - work)| / largest energy seen
@@ -547,10 +547,6 @@ def _progress(system, until, done, total, wall) -> Progress:
                     wall_s=wall, steps_per_s=sps, eta_s=eta)
 
 
-_STAGE_OF_SLOT = {"neighbour_list": "neighbour_list", "bonds": "bonds",
-                  "bristle_bristle": "bristle_bristle_contacts",
-                  "bristle_body": "bristle_body_contacts", "body_body": "body_body_contacts"}
-
 
 def _summary(system: System, status: str, wall: float, steps: int, stage_time0, timed0,
              record_wall: float, frames: int, compile_wall: float = 0.0) -> dict:
@@ -562,11 +558,8 @@ def _summary(system: System, status: str, wall: float, steps: int, stage_time0, 
     total_sampled = float(spent.sum())
     scale = compute / total_sampled if total_sampled > 0 else 0.0
     stage_wall = {}
-    for slot, name in enumerate(STAGES):
-        needed = _STAGE_OF_SLOT.get(name)
-        if needed is not None and needed not in system.stages:
-            continue
-        stage_wall[name] = float(spent[slot] * scale)
+    for slot in timed_slots(system.stages):
+        stage_wall[STAGES[slot]] = float(spent[slot] * scale)
     stage_wall["recording"] = record_wall
     return {
         "status": status,

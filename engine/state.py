@@ -49,7 +49,7 @@ Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity"])
 Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "external"])
 
 Flags = namedtuple("Flags", [
-    "bonds", "bond_damping", "bristle_bristle", "bristle_body", "body_body",
+    "bonds", "bond_damping", "bristle_bristle", "bristle_body", "body_body", "mesh_mesh",
     "friction_bristle", "friction_body", "friction_body_body", "rigid_bodies",
     "mounted_roots", "gravity", "loads", "local_damping", "track_energy", "check_every",
     "time_every", "orbit", "controllers", "external_loads"])
@@ -71,9 +71,88 @@ ACC_STEPS = 12
 ACC_TIMED_STEPS = 13
 ACC_SIZE = 16
 
-# stage timing slots
+# ---- the step loop's stages: one vocabulary
+# Timing slots: the step loop adds each timed part of a step to ``stage_time[SLOT_...]``
+# (numba reads these module globals as compile-time constants).
+SLOT_INTEGRATE = 0
+SLOT_NEIGHBOUR_LIST = 1
+SLOT_BONDS = 2
+SLOT_BRISTLE_BRISTLE = 3
+SLOT_BRISTLE_BODY = 4
+SLOT_BODY_BODY = 5
+SLOT_EXTERNAL = 6
+SLOT_CHECKS = 7
+# the slots' names, in slot order: the keys of the run summary's ``stages`` (wall seconds)
 STAGES = ("integrate", "neighbour_list", "bonds", "bristle_bristle", "bristle_body",
           "body_body", "external_forces", "checks")
+# slots whose work every step does, whatever the scene
+ALWAYS_TIMED = (SLOT_INTEGRATE, SLOT_EXTERNAL, SLOT_CHECKS)
+
+Stage = namedtuple("Stage", ["name", "slot", "needed", "what"])
+Stage.__doc__ = """One computation stage: ``name`` as ``System.stages`` and the run summary's
+``assembled`` list give it, the timing ``slot`` its time is counted in (None: inside another
+stage's time), ``needed(flags)`` (assembled when true) and ``what`` it computes (docs/api.md's
+table is this text)."""
+
+_FRICTION = lambda f: bool(f.friction_bristle or f.friction_body or f.friction_body_body)
+
+STAGE_TABLE = (
+    Stage("bonds", SLOT_BONDS, lambda f: f.bonds,
+          "beam bond forces and moments (axial, shear, bending, torsion)"),
+    Stage("bond_damping", SLOT_BONDS, lambda f: f.bond_damping,
+          "viscous damping inside the bonds"),
+    Stage("neighbour_list", SLOT_NEIGHBOUR_LIST,
+          lambda f: f.bristle_bristle or f.bristle_body,
+          "Verlet lists of segment pairs and segment-body candidates, rebuilt when nodes "
+          "have moved half the skin"),
+    Stage("bristle_bristle_contacts", SLOT_BRISTLE_BRISTLE, lambda f: f.bristle_bristle,
+          "contacts between bristle segments (only where two bristles can reach each other)"),
+    Stage("bristle_body_contacts", SLOT_BRISTLE_BODY, lambda f: f.bristle_body,
+          "contacts between bristle segments and colliding bodies"),
+    Stage("body_body_contacts", SLOT_BODY_BODY, lambda f: f.body_body,
+          "contacts between bodies, at least one of them free or hinged"),
+    Stage("mesh_mesh_contacts", SLOT_BODY_BODY, lambda f: f.mesh_mesh,
+          "the mesh-mesh part of body contacts: sample points of each hull against the other"),
+    Stage("tangential_history", None, _FRICTION,
+          "Coulomb friction with tangential spring history in the contacts"),
+    Stage("rigid_bodies", SLOT_INTEGRATE, lambda f: f.rigid_bodies,
+          "motion of kinematic, hinged and free bodies"),
+    Stage("mounted_roots", SLOT_INTEGRATE, lambda f: f.mounted_roots,
+          "bristle roots carried by a body, their forces passed back to it"),
+    Stage("gravity", SLOT_EXTERNAL, lambda f: f.gravity, "uniform gravity"),
+    Stage("loads", SLOT_EXTERNAL, lambda f: f.loads, "node loads given in the scene"),
+    Stage("local_damping", SLOT_EXTERNAL, lambda f: f.local_damping,
+          "Cundall local (non-viscous) damping of the node forces"),
+    Stage("energy_tracking", None, lambda f: f.track_energy,
+          "energy bookkeeping: stored, dissipated and work done"),
+    Stage("orbit", SLOT_EXTERNAL, lambda f: f.orbit,
+          "Clohessy-Wiltshire relative orbital dynamics (and gravity-gradient torque)"),
+    Stage("controllers", SLOT_EXTERNAL, lambda f: f.controllers,
+          "pose controllers of controlled bodies"),
+    Stage("external_body_loads", SLOT_EXTERNAL, lambda f: f.external_loads,
+          "constant external force and torque on bodies"),
+)
+
+
+def assembled_stages(flags) -> list:
+    """The names of the stages a system with these flags runs, in the table's order."""
+    return [st.name for st in STAGE_TABLE if st.needed(flags)]
+
+
+def timed_slots(stages) -> list:
+    """The timing slots a run of these assembled stages reports, in slot order."""
+    used = {st.slot for st in STAGE_TABLE if st.name in stages} | set(ALWAYS_TIMED)
+    return [slot for slot in range(len(STAGES)) if slot in used]
+
+
+def stages_markdown() -> str:
+    """docs/api.md's table of stages (a test keeps the page equal to it)."""
+    rows = ["| stage | timed in | what it computes |", "|---|---|---|"]
+    for st in STAGE_TABLE:
+        slot = f"`{STAGES[st.slot]}`" if st.slot is not None else "(within other stages)"
+        rows.append(f"| `{st.name}` | {slot} | {st.what} |")
+    return "\n".join(rows)
+
 
 # failure codes returned by the step loop
 OK = 0

@@ -6,6 +6,11 @@ kick and drift of nodes and bodies, roots follow their bases, then forces (bonds
 contacts, roots onto mounted bodies, local damping), then the second half kick. Every
 ``check_every`` steps the state is checked for instability; every ``time_every`` steps the
 stages are timed (so the run can report where its time goes).
+
+The loop is one compiled function for every scene: each stage is a branch switched by a
+``Flags`` field that ``build`` sets (``engine.state.STAGE_TABLE`` names the stages, their
+flags and their timing slots), so a scene without, say, bodies skips those branches but is
+not compiled into a loop of its own.
 """
 from __future__ import annotations
 
@@ -30,7 +35,9 @@ from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MA
                     ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
                     FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
                     FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK,
-                    OVERFLOW_BODY, OVERFLOW_PAIRS)
+                    OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY, SLOT_BONDS,
+                    SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS, SLOT_EXTERNAL,
+                    SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
 
 
 @njit(cache=True)
@@ -355,7 +362,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                 acc[ACC_REBUILDS] += 1
         if timed:
             c1 = _clock()
-            stage_time[1] += c1 - c0
+            stage_time[SLOT_NEIGHBOUR_LIST] += c1 - c0
         # ---- half kick + drift
         if fl.orbit:
             nodes_kick_drift_cw(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t, nd.inv_mass,
@@ -378,7 +385,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         acc[ACC_TIME] = t_new
         if timed:
             c2 = _clock()
-            stage_time[0] += c2 - c1
+            stage_time[SLOT_INTEGRATE] += c2 - c1
         # ---- forces
         last = it == n_steps - 1
         want_energy = fl.track_energy and (last or fl.bond_damping)
@@ -394,7 +401,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             nd.t[:] = 0.0
         if timed:
             c3 = _clock()
-            stage_time[2] += c3 - c2
+            stage_time[SLOT_BONDS] += c3 - c2
         if fl.rigid_bodies or fl.bristle_body or fl.mounted_roots:
             bd.f[:] = 0.0
             bd.tq[:] = 0.0
@@ -404,7 +411,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             acc[ACC_WORK] += add_loads(ld, nd.f, nd.v, t_new, dt)
         if timed:
             c4 = _clock()
-            stage_time[6] += c4 - c3
+            stage_time[SLOT_EXTERNAL] += c4 - c3
         if fl.bristle_bristle:
             n_pairs = pl.n[0]
             bristle_bristle_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
@@ -428,7 +435,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
         if timed:
             c5 = _clock()
-            stage_time[3] += c5 - c4
+            stage_time[SLOT_BRISTLE_BRISTLE] += c5 - c4
         if fl.bristle_body:
             n_cand = bl.n[0]
             bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
@@ -456,7 +463,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
         if timed:
             c6 = _clock()
-            stage_time[4] += c6 - c5
+            stage_time[SLOT_BRISTLE_BODY] += c6 - c5
         if fl.body_body:
             body_body_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.sphere_r,
                                bd.watertight, bd.material, bd.collide, bd.verts, bd.tris,
@@ -464,13 +471,14 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
                                tb.mu, tb.kt, tb.zeta, bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
                                stats, dt)
-            mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r,
-                               bd.material, bd.point_start, bd.points, bd.mesh_kn,
-                               bd.mesh_len, bd.verts,
-                               bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
-                               bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.mu,
-                               tb.kt, tb.zeta, bd.ft_mesh, fl.friction_body_body, bd.scratch,
-                               bd.f, bd.tq, stats, dt)
+            if fl.mesh_mesh:
+                mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r,
+                                   bd.material, bd.point_start, bd.points, bd.mesh_kn,
+                                   bd.mesh_len, bd.verts,
+                                   bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
+                                   bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.mu,
+                                   tb.kt, tb.zeta, bd.ft_mesh, fl.friction_body_body, bd.scratch,
+                                   bd.f, bd.tq, stats, dt)
             acc[ACC_N_BODYBODY] = stats[0]
             acc[ACC_E_BODYBODY] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]
@@ -481,7 +489,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                 return FAIL_OVERLAP_BODYBODY, it + 1
         if timed:
             c7 = _clock()
-            stage_time[5] += c7 - c6
+            stage_time[SLOT_BODY_BODY] += c7 - c6
         if fl.mounted_roots:
             roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
         if fl.orbit:
@@ -507,7 +515,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                                            + bd.tq[k, 2] * bd.w[k, 2])
         if timed:
             c8 = _clock()
-            stage_time[6] += c8 - c7
+            stage_time[SLOT_EXTERNAL] += c8 - c7
         # ---- second half kick
         nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
         if fl.rigid_bodies:
@@ -517,12 +525,12 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         acc[ACC_STEPS] += 1
         if timed:
             c9 = _clock()
-            stage_time[0] += c9 - c8
+            stage_time[SLOT_INTEGRATE] += c9 - c8
         if last or (int(acc[ACC_STEPS]) % fl.check_every == 0):
             code = check_state(nd, bd, fl, acc, err, dt, limits, t_new)
             if code != OK:
                 return code, it + 1
         if timed:
-            stage_time[7] += _clock() - c9
+            stage_time[SLOT_CHECKS] += _clock() - c9
             acc[ACC_TIMED_STEPS] += 1
     return OK, n_steps

@@ -119,3 +119,59 @@ def test_cancel_stops_the_run_and_keeps_a_readable_file(tmp_path):
     with result.open() as res:
         assert res.status == "cancelled" and res.n_frames >= 1
         assert res.time[-1] < 1.0
+
+
+# ---- one stage vocabulary (engine.state.STAGE_TABLE)
+def test_stage_table_is_the_documented_one():
+    """docs/api.md's table of stages is engine.state.stages_markdown(): catches a stage added
+    to the engine (or renamed) without the page saying what it is."""
+    from pathlib import Path
+
+    from engine.state import stages_markdown
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "api.md").read_text()
+    start = page.index("<!-- stages table: engine.state.stages_markdown() -->\n")
+    end = page.index("<!-- end stages table -->")
+    assert page[start:end].split("\n", 1)[1].strip() == stages_markdown()
+
+
+def test_every_switch_of_the_step_loop_names_a_stage():
+    """Each boolean Flags field switches at least one named stage, and turning it alone on
+    assembles exactly the stages that need it: catches a new branch of the step loop that
+    the summary and the timings would not know about."""
+    from engine.state import STAGE_TABLE, Flags, assembled_stages
+
+    counters = {"check_every", "time_every"}
+    off = Flags(**{f: (1 if f in counters else False) for f in Flags._fields})
+    assert assembled_stages(off) == []
+    for field in Flags._fields:
+        if field in counters:
+            continue
+        on = assembled_stages(off._replace(**{field: True}))
+        assert on, f"Flags.{field} switches no stage"
+        assert on == [st.name for st in STAGE_TABLE if st.needed(off._replace(**{field: True}))]
+
+
+def test_summary_times_exactly_the_slots_of_the_assembled_stages(tmp_path):
+    """A bristle alone: the summary times its bonds and the always-run slots, not the
+    contact slots it never runs (which would show as zero-cost stages)."""
+    s = engine.build(scene(run={"duration": 0.002, "record_interval": 0.001,
+                                "channels": ["nodes"]}))
+    summary = engine.run(s, output=tmp_path / "r.h5").summary
+    assert set(summary["stages"]) == {"integrate", "bonds", "external_forces", "checks",
+                                      "recording"}
+
+
+def test_mesh_mesh_stage_only_for_mesh_pairs():
+    """A free sphere body against a fixed box runs body-body contacts but not the mesh-mesh
+    kernel (its own flag): catches the mesh-mesh kernel switched by the body-body flag."""
+    d = dict(bodies=[{"name": "ball", "material": "pla", "motion": {"type": "free"},
+                      "mass_properties": {"density": 1240.0},
+                      "shape": {"type": "sphere", "radius": 0.005},
+                      "pose": {"position": [0, 0, 0.05]}},
+                     {"name": "box", "material": "pla",
+                      "shape": {"type": "box", "size": [0.02, 0.02, 0.02]},
+                      "pose": {"position": [0, 0.1, 0.05]}}])
+    s = engine.build(scene(**d))
+    assert "body_body_contacts" in s.stages and "mesh_mesh_contacts" not in s.stages
+    assert s.flags.body_body and not s.flags.mesh_mesh
