@@ -377,7 +377,8 @@ def _quasi_static_steps(system, p: dict, brush: str, body: str, direction, serie
 
     from engine.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
                                     lowest_bristle_period, settle)
-    from engine.run import root_reactions, run_steps
+    from engine.observables import root_reactions
+    from engine.run import run_steps
 
     dt = system.dt
     freeze_slip(system)

@@ -256,7 +256,7 @@ def test_wedge_run_forces_equal_with_every_segment_listed():
         data["run"]["verlet_skin"] = skin
         system = engine.build(engine.parse_scene(data))
         engine.run(system, until=0.0085)
-        from engine.run import root_reactions
+        from engine.observables import root_reactions
         return system, root_reactions(system)["brush"][0]
 
     tight, f_tight = run(None)

@@ -63,7 +63,7 @@ def test_pd_steady_state_error_is_disturbance_over_stiffness():
                        atol=1e-9)
     # the attitude law is kp * rotation vector, so the equilibrium is exact: rotvec = T_d/kp
     assert np.allclose(_mesh_rotvec(sys), t_d / kpa, rtol=0, atol=1e-8)
-    from engine.run import controller_record
+    from engine.observables import controller_record
     rec = controller_record(sys, 0)
     # the applied force balances the disturbance (world = body axes at the target attitude
     # up to the small steady rotation, so compare the world impulse rate instead)
@@ -110,7 +110,7 @@ def test_saturation_is_per_body_axis():
     assert sys.bodies.pos[0, 0] == pytest.approx(0.5 * a * t * t, rel=3e-3)
     assert np.linalg.norm(sys.bodies.pos[0, 1:]) < 1e-9
     # Delta-v is the integral of |F| / m: 0.2 N / 2 kg for 10 s = 1 m/s
-    from engine.run import controller_record
+    from engine.observables import controller_record
     assert controller_record(sys, 0)["delta_v"] == pytest.approx(a * t, rel=3e-3)
 
 

@@ -1,0 +1,117 @@
+"""What a built system's current state amounts to: energies, momenta, the reactions at the
+brush roots, bending moments per bond and each controller's record.
+
+Plain numpy over the ``System``'s arrays (the bond moments call the bond kernel once). The run
+records these per frame (``engine.channels``); tests and studies call them on a live system.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .bodies import FREE, HINGE
+from .build import System
+from .orbit import orbit_energy
+from .rotations import quat_to_matrix
+from .state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
+
+#: per controller: (name, per-frame shape); forces and torques in the body's mesh axes,
+#: impulses and errors in world axes (engine.control)
+CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
+                        ("commanded_torque", (3,)), ("applied_torque", (3,)),
+                        ("impulse", (3,)), ("angular_impulse", (3,)), ("delta_v", ()),
+                        ("angular_impulse_total", ()), ("position_error", (3,)),
+                        ("attitude_error", (3,)))
+
+
+def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
+    """Controller c's current record (see CONTROLLER_CHANNELS)."""
+    from . import control as C
+    cs = system.mission.ctl_state[c]
+    slots = {"commanded_force": C.S_CMD_F, "applied_force": C.S_APP_F,
+             "commanded_torque": C.S_CMD_T, "applied_torque": C.S_APP_T,
+             "impulse": C.S_IMPULSE, "angular_impulse": C.S_ANG_IMPULSE,
+             "position_error": C.S_ERR_POS, "attitude_error": C.S_ERR_ATT}
+    out = {k: cs[i:i + 3].copy() for k, i in slots.items()}
+    out["delta_v"] = np.float64(cs[C.S_DELTA_V])
+    out["angular_impulse_total"] = np.float64(cs[C.S_ANG_IMPULSE_ABS])
+    return out
+
+
+def energies(system: System) -> dict[str, float]:
+    """Energies of the current state (J). Bond energy is that of the last force evaluation."""
+    nd, bd = system.nodes, system.bodies
+    free = nd.inv_mass > 0
+    kin = 0.5 * float(np.sum(nd.mass[free] * np.sum(nd.v[free] ** 2, axis=1)))
+    kin += 0.5 * float(np.sum(nd.inertia[free] * np.sum(nd.w[free] ** 2, axis=1)))
+    g = system.tables.gravity
+    grav = -float(np.sum(nd.mass[free] * ((nd.x[free] - nd.x0[free]) @ g)))
+    for k in range(bd.pos.shape[0]):
+        if bd.motion[k] == FREE:
+            kin += 0.5 * bd.mass[k] * float(bd.v[k] @ bd.v[k]) + 0.5 * float(bd.w[k] @ bd.L[k])
+            grav -= bd.mass[k] * float((bd.pos[k] - bd.pos0[k]) @ g)
+        elif bd.motion[k] == HINGE:
+            om = float(bd.w[k] @ bd.hinge_axis[k])
+            kin += 0.5 * bd.hinge_inertia[k] * om * om
+            grav -= bd.mass[k] * float((bd.pos[k] - bd.pos0[k]) @ g)
+    grav += orbit_energy(system)  # tidal (Clohessy-Wiltshire) potential; 0 without an orbit
+    bond = float(system.bonds.energy.sum())
+    contact = float(system.acc[ACC_E_BB] + system.acc[ACC_E_BODY] + system.acc[ACC_E_BODYBODY])
+    diss = float(system.acc[ACC_HINGE_DISS] + system.acc[ACC_DISSIPATED])
+    work = float(system.acc[ACC_WORK])
+    return {"kinetic": kin, "bond": bond, "contact": contact, "gravity": grav,
+            "dissipated": diss, "external_work": work, "total": kin + bond + contact + grav}
+
+
+def angular_momentum(system: System, about=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """Total angular momentum of free nodes and free/hinge bodies about a point."""
+    nd, bd = system.nodes, system.bodies
+    o = np.asarray(about, float)
+    free = nd.inv_mass > 0
+    Lt = np.sum(np.cross(nd.x[free] - o, nd.mass[free, None] * nd.v[free]), axis=0)
+    Lt = Lt + np.sum(nd.inertia[free, None] * nd.w[free], axis=0)
+    for k in range(bd.pos.shape[0]):
+        if bd.motion[k] == FREE:
+            Lt = Lt + np.cross(bd.pos[k] - o, bd.mass[k] * bd.v[k]) + bd.L[k]
+    return Lt
+
+
+def linear_momentum(system: System) -> np.ndarray:
+    nd, bd = system.nodes, system.bodies
+    free = nd.inv_mass > 0
+    p = np.sum(nd.mass[free, None] * nd.v[free], axis=0)
+    for k in range(bd.pos.shape[0]):
+        if bd.motion[k] == FREE:
+            p = p + bd.mass[k] * bd.v[k]
+    return p
+
+
+def root_reactions(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per brush: the total force the base exerts on the roots, and its moment about the
+    base origin."""
+    nd, rt, bd = system.nodes, system.roots, system.bodies
+    out = {}
+    for b in system.brushes:
+        nodes = rt.node[b.root_index]
+        f = nd.f[nodes]
+        if b.mount >= 0:
+            origin = bd.pos[b.mount] + quat_to_matrix(bd.q[b.mount]) @ b.base_local
+        else:
+            origin = b.base_position
+        force = -f.sum(axis=0)
+        torque = -(np.cross(nd.x[nodes] - origin, f).sum(axis=0) + nd.t[nodes].sum(axis=0))
+        out[b.name] = (force, torque)
+    return out
+
+
+def bending_moments(system: System) -> np.ndarray:
+    """Bending moment magnitude per bond at its midpoint (N m), from the current state: the
+    bond kernel's own value (the gradient of the bond energy in the bending rotation,
+    ``|k_b phi + k_sb e_z x d|``, which includes a tapered bond's shear coupling)."""
+    from .bonds import bond_forces
+    nd, bn = system.nodes, system.bonds
+    B = bn.i.shape[0]
+    bend = np.zeros(B)
+    bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0,
+                bn.cn, bn.cs, bn.cb, bn.ct, np.zeros((B, 3)), np.zeros((B, 3)),
+                np.zeros((B, 3)), np.zeros(B), np.zeros(B), bend, False, True, system.dt)
+    return bend
