@@ -1,4 +1,5 @@
-"""Rigid-body geometry: a :class:`engine.spec.Body`'s shape turned into the arrays the engine uses.
+"""Rigid-body geometry: a :class:`engine.spec_bodies.Body`'s shape turned into the arrays the
+engine uses.
 
 ``body_geometry`` builds the shape's triangle mesh with trimesh (primitives or a file), takes the
 mass, centre of mass and inertia from the closed mesh and a density or as given, moves the
@@ -21,7 +22,7 @@ from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
-from . import spec
+from . import spec_bodies
 from .errors import SceneError
 
 if TYPE_CHECKING:
@@ -62,7 +63,7 @@ class BodyGeometry:
 
 
 # --------------------------------------------------------------------------- shapes
-def _wedge_mesh(shape: spec.WedgeShape) -> trimesh.Trimesh:
+def _wedge_mesh(shape: spec_bodies.WedgeShape) -> trimesh.Trimesh:
     """Triangular prism: apex edge on local x (z = 0), cross-section in y-z the triangle
     (0, 0), (-h tan(a/2), h), (h tan(a/2), h), from x = -length/2 to length/2."""
     h, half = shape.height, 0.5 * shape.length
@@ -85,16 +86,16 @@ def _wedge_mesh(shape: spec.WedgeShape) -> trimesh.Trimesh:
 def shape_mesh(shape, field: str = "shape") -> trimesh.Trimesh:
     """The shape as a triangle mesh in its own frame (also used for display)."""
     import trimesh
-    if isinstance(shape, spec.BoxShape):
+    if isinstance(shape, spec_bodies.BoxShape):
         return trimesh.creation.box(extents=shape.size)
-    if isinstance(shape, spec.SphereShape):
+    if isinstance(shape, spec_bodies.SphereShape):
         return trimesh.creation.icosphere(subdivisions=shape.subdivisions, radius=shape.radius)
-    if isinstance(shape, spec.CylinderShape):
+    if isinstance(shape, spec_bodies.CylinderShape):
         return trimesh.creation.cylinder(radius=shape.radius, height=shape.height,
                                          sections=shape.sections)
-    if isinstance(shape, spec.WedgeShape):
+    if isinstance(shape, spec_bodies.WedgeShape):
         return _wedge_mesh(shape)
-    if isinstance(shape, spec.MeshFileShape):
+    if isinstance(shape, spec_bodies.MeshFileShape):
         return load_mesh_file(shape.file, shape.scale, field=f"{field}.file")
     raise SceneError.single(field, type(shape).__name__,
                             "must be a box, sphere, cylinder, wedge or mesh shape")
@@ -158,7 +159,7 @@ def _check_inertia(inertia: np.ndarray, field: str) -> None:
                                 "inequality I1 + I2 >= I3 that every real body satisfies")
 
 
-def _mass_properties(body: spec.Body, mesh: trimesh.Trimesh, field: str):
+def _mass_properties(body: spec_bodies.Body, mesh: trimesh.Trimesh, field: str):
     """(mass, inertia about the COM in shape axes, com in shape frame)."""
     mp = body.mass_properties
     if mp is None:  # fixed / kinematic(hold): infinite or driven, the engine never divides
@@ -179,7 +180,8 @@ def _mass_properties(body: spec.Body, mesh: trimesh.Trimesh, field: str):
                 "give mass and inertia instead")
         mass = float(props.mass)
         inertia = np.array(props.inertia, dtype=np.float64)
-        if isinstance(body.shape, (spec.BoxShape, spec.SphereShape, spec.CylinderShape)):
+        if isinstance(body.shape, (spec_bodies.BoxShape, spec_bodies.SphereShape,
+                                   spec_bodies.CylinderShape)):
             com = np.zeros(3)  # centred primitives: the COM is the origin by symmetry
         else:
             com = np.array(props.center_mass, dtype=np.float64)
@@ -212,7 +214,7 @@ def _n_degenerate(vertices: np.ndarray, triangles: np.ndarray) -> int:
 
 
 # --------------------------------------------------------------------------- body
-def body_geometry(body: spec.Body, field: str = "bodies.?") -> BodyGeometry:
+def body_geometry(body: spec_bodies.Body, field: str = "bodies.?") -> BodyGeometry:
     """Geometry, mass properties and contact grid of one body. Raises SceneError naming
     ``{field}.shape.file`` / ``{field}.mass_properties.*`` on a bad mesh or mass.
 
@@ -226,12 +228,13 @@ def body_geometry(body: spec.Body, field: str = "bodies.?") -> BodyGeometry:
     return geo
 
 
-def _build_geometry(body: spec.Body, field: str) -> BodyGeometry:
+def _build_geometry(body: spec_bodies.Body, field: str) -> BodyGeometry:
     mesh = shape_mesh(body.shape, field=f"{field}.shape")
     mass, inertia, com = _mass_properties(body, mesh, field)
     vertices = np.ascontiguousarray(np.asarray(mesh.vertices, dtype=np.float64) - com)
     triangles = np.ascontiguousarray(np.asarray(mesh.faces, dtype=np.int64))
-    sphere_radius = float(body.shape.radius) if isinstance(body.shape, spec.SphereShape) else 0.0
+    sphere_radius = (float(body.shape.radius)
+                     if isinstance(body.shape, spec_bodies.SphereShape) else 0.0)
     bounding = float(np.sqrt((vertices * vertices).sum(axis=1)).max())
     if sphere_radius > 0.0:  # the exact sphere, centred at -com
         bounding = sphere_radius + float(np.linalg.norm(com))
@@ -250,7 +253,7 @@ CACHE_ENTRIES = 64  # most recently used geometries kept; each is a few KB to a 
 _CACHE_DIR = Path(__file__).parent / "__pycache__" / "geometry"
 
 
-def _cache_key(body: spec.Body):
+def _cache_key(body: spec_bodies.Body):
     """What a body's geometry depends on: its shape and mass properties as given, the mesh
     file's bytes, this module's source and limits, and trimesh's version. None when it
     cannot be told (an unreadable file: the full build then reports it). A geometry that
@@ -265,7 +268,7 @@ def _cache_key(body: spec.Body):
         digest.update(body.shape.model_dump_json().encode())
         mp = body.mass_properties
         digest.update(b"null" if mp is None else mp.model_dump_json().encode())
-        if isinstance(body.shape, spec.MeshFileShape):
+        if isinstance(body.shape, spec_bodies.MeshFileShape):
             digest.update(Path(body.shape.file).read_bytes())
     except (OSError, metadata.PackageNotFoundError):
         return None

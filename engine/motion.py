@@ -16,7 +16,8 @@ from pydantic import TypeAdapter, ValidationError
 from .bodies import KINEMATIC, kinematic_state
 from .build import System, kinematic_segments
 from .errors import SceneError
-from .spec import Profile, _problems_from
+from .spec import _problems_from
+from .spec_bodies import Profile
 
 _PROFILE = TypeAdapter(Profile)
 

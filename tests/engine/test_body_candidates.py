@@ -12,7 +12,7 @@ import trimesh
 import engine
 from engine.body_contacts import BSLOT, deep_closest, nearest_triangle
 from engine.errors import InstabilityError
-from engine import spec
+from engine import spec_bodies
 from engine.meshes import shape_mesh
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -187,7 +187,7 @@ def _beside_wedge_scene(tmp_path, closed):
     from the wedge. Open: the same wedge without its end caps, from a mesh file."""
     shape = {"type": "wedge", "angle": np.pi / 3, "height": 0.04, "length": 0.02}
     if not closed:
-        m = shape_mesh(spec.WedgeShape(**shape))
+        m = shape_mesh(spec_bodies.WedgeShape(**shape))
         open_mesh = trimesh.Trimesh(m.vertices, m.faces[2:], process=False)  # no end caps
         path = tmp_path / "open_wedge.stl"
         open_mesh.export(path)

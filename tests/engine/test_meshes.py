@@ -12,8 +12,8 @@ import trimesh
 from engine import meshes
 from engine.errors import SceneError
 from engine.meshes import body_geometry, load_mesh_file, shape_mesh, triangle_grid
-from engine.spec import (BoxShape, Body, CylinderShape, MassProperties, MeshFileShape,
-                         SphereShape, WedgeShape)
+from engine.spec_bodies import (BoxShape, Body, CylinderShape, MassProperties, MeshFileShape,
+                                SphereShape, WedgeShape)
 
 RHO = 1250.0
 EXACT = 1e-12  # closed forms of polyhedra evaluated by trimesh: only float rounding differs
