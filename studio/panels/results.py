@@ -351,8 +351,12 @@ class ResultsPanel:
             self.figures: dict[str, Any] = {}
             self.legend: Optional[dict] = None
             self.plots_place = "docked"
-        # the plots get a window of their own beside the 3D view (issue 14, item 9: the
-        # side panel's 380 px are too narrow to read them); older viser: in the tab
+        self._new_plots_window(gui)
+
+    def _new_plots_window(self, gui) -> None:
+        """The plots get a window of their own beside the 3D view (issue 14, item 9: the
+        side panel's 380 px are too narrow to read them); with a viser before panels, the
+        Results tab."""
         self.plots_panel = gui.add_panel(visible=False) if hasattr(gui, "add_panel") \
             else None
         self.plots_tab = self.plots_panel.add_tab("Plots") if self.plots_panel is not None \
@@ -364,6 +368,19 @@ class ResultsPanel:
         panel = self.plots_panel
         if panel is None or where not in PLOT_PLACES:
             return
+        if where == "docked" and self.plots_place == "pop out":
+            # viser 1.1's page docks a window that floated at its floating width, whatever
+            # width it is then given: a new window docks at the width asked for
+            with self.lock:
+                panel.remove()
+                self.plots.clear()
+                self._new_plots_window(self.server.gui)
+                panel = self.plots_panel
+                self.plots_place = where
+                if self.playback is not None:
+                    self._make_plots()  # (shows and places the new window)
+                    self._move_cursor(float(self.playback.time[max(self.frame_index, 0)]))
+                return
         self.plots_place = where
         if where == "docked":
             panel.dock_right()
