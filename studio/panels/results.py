@@ -451,9 +451,14 @@ class ResultsPanel:
         step = float(np.median(np.diff(t))) if n > 1 else 1.0
         if not step > 0:
             step = (t1 - t0) / max(n - 1, 1) or 1.0
-        self.sl_time.min, self.sl_time.max = t0, (t1 if t1 > t0 else t0 + step)
+        digits = int(min(max(np.ceil(-np.log10(step)) + 1, 1), 9))
+        # the ends rounded to the digits shown (the slider's tooltip shows them as they
+        # are: 0.9999582512234378 for a run that stopped at 1 s); a time picks the nearest
+        # frame, so the last frame stays at the end
+        lo, hi = round(t0, digits), round(t1, digits)
+        self.sl_time.min, self.sl_time.max = lo, (hi if hi > lo else lo + step)
         self.sl_time.step = step
-        self.sl_time.precision = int(min(max(np.ceil(-np.log10(step)) + 1, 1), 9))
+        self.sl_time.precision = digits
         self.sl_time.disabled = n < 2
 
     def frame_at(self, t: float) -> int:
