@@ -169,18 +169,28 @@ def press_depth(res: "ResultFrames"):
     """For a run whose body is pressed kinematically into the brush: (body name, depth per
     frame in m), the body's displacement from its first recorded position along its overall
     direction of travel; None when no kinematic body moves."""
+    return press_depth_of(res.res, res.body_names)
+
+
+def press_depth_of(result, body_names=None):
+    """:func:`press_depth` of an open result file (``engine.open_result``): also for plots
+    made without the studio."""
     try:
-        scene = res.res.json_attr("scene") or {}
+        scene = result.json_attr("scene") or {}
     except Exception:
         scene = {}
     motions = {b.get("name"): (b.get("motion") or {}).get("type")
                for b in scene.get("bodies") or []}
-    channels = set(res.res.channels())
-    for name in res.body_names:
+    if body_names is None:
+        body_names = list(result.json_attr("body_names") or [])
+    channels = set(result.channels())
+    for name in body_names:
         c = f"bodies/{name}/position"
-        if motions.get(name) != "kinematic" or c not in channels or res.n_frames < 2:
+        if motions.get(name) != "kinematic" or c not in channels:
             continue
-        x = np.asarray(res.res.series(c), float)
+        x = np.asarray(result.series(c), float)
+        if len(x) < 2:
+            continue
         d = x - x[0]
         far = int(np.argmax(np.linalg.norm(d, axis=1)))
         span = float(np.linalg.norm(d[far]))
@@ -190,10 +200,6 @@ def press_depth(res: "ResultFrames"):
     return None
 
 
-# viser 1.1 draws a plotly figure ``aspect`` times as tall as it is wide (its docstring says
-# width / height; the client sets height = width * aspect, overriding the layout's height):
-# 0.62 gives a 540 px wide plot 335 px of height (the studio once passed 1.6: plots 1.6
-# times as tall as wide)
 PLOT_ASPECT = 0.62
 
 
@@ -214,7 +220,8 @@ def result_figures(res: "ResultFrames") -> tuple[dict, dict]:
 
     * root force F_x, F_y, F_z per brush; contact force and contact torque on each body,
       per component (|F| hid F_z, issue 14 item 9);
-    * root force against the depth of a kinematically pressed body;
+    * root force, and the contact force on the pressed body, against the depth of a
+      kinematically pressed body;
     * each moving body's angular velocity, signed components and |omega| [deg/s] (a
       reversal shows as a sign change, not a dip to zero);
     * each free body's spin angular momentum L (inertial, ``ResultFile.
@@ -258,15 +265,22 @@ def result_figures(res: "ResultFrames") -> tuple[dict, dict]:
             figs[title] = f
 
     press = press_depth(res)
-    if press is not None and forces:
+    if press is not None:
         body, depth = press
-        f = go.Figure()
-        for n, (brush, F) in enumerate(forces.items()):
-            _components(f, depth * 1e3, F, f"{brush} F_", DASHES[n % len(DASHES)])
-        title = f"root force [N] against depth of {body} [mm]"
-        f.update_layout(xaxis_title=f"depth of {body} [mm]")
-        figs[title] = f
-        cursor_x[title] = depth * 1e3
+        pushed = f"bodies/{body}/contact_force"
+        plots = [(f"root force [N] against depth of {body} [mm]", forces, "F_")]
+        if pushed in channels:  # what a scale under the press reads (no brush weight)
+            plots.append((f"contact force on {body} [N] against its depth [mm]",
+                          {body: np.asarray(r.series(pushed), float)}, "F_"))
+        for title, series, symbol in plots:
+            if not series:
+                continue
+            f = go.Figure()
+            for n, (name, F) in enumerate(series.items()):
+                _components(f, depth * 1e3, F, f"{name} {symbol}", DASHES[n % len(DASHES)])
+            f.update_layout(xaxis_title=f"depth of {body} [mm]")
+            figs[title] = f
+            cursor_x[title] = depth * 1e3
 
     f = go.Figure()
     for n, name in enumerate(res.body_names):

@@ -100,6 +100,10 @@ def test_e2e_results_are_readable(studio, page, shot, tmp_path, tiny_scene):
     assert not any("|F|" in name for p in plots.values() for name in p["names"])
     depth = plots["root force [N] against depth of box [mm]"]["x"][0]
     assert max(depth) == pytest.approx(1.0, abs=0.05)  # the box goes 1 mm down
+    pushed = wait_plots(page, ("contact force on box [N] against its depth [mm]",))[
+        "contact force on box [N] against its depth [mm]"]
+    assert pushed["names"] == ["box F_x", "box F_y", "box F_z"]
+    assert pushed["x"][2] == depth and max(pushed["y"][2]) > 0  # the brush pushes it up
     # no trace is drawn in the cursor's red
     assert not any(c and c.lower() == "#d62728" for p in plots.values() for c in p["colors"])
 
