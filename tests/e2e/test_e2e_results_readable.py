@@ -73,6 +73,16 @@ def test_e2e_results_are_readable(studio, page, shot, tmp_path, tiny_scene):
     st = studio.wait_state(lambda s: s["frame"] == n - 1, what="the last frame")
     assert st["time_s"] == pytest.approx(t_end, abs=1e-5)  # the frame's own time
     wait_text(page, "t = 0.00400 s of")
+    # play steps through the frames by their times (the slider holds seconds now)
+    page.get_by_label("play", exact=True).evaluate("b => b.click()")
+    st = studio.wait_state(lambda s: s["frame"] != n - 1 and s["time_s"] is not None,
+                           what="playing")
+    page.get_by_label("play", exact=True).evaluate("b => b.click()")
+    assert 0.0 <= st["time_s"] < t_end and st["slider"]["value"] == pytest.approx(
+        st["time_s"], abs=1e-12)
+    slider.evaluate("e => e.focus()")
+    page.keyboard.press("End")
+    studio.wait_state(lambda s: s["frame"] == n - 1, what="the last frame again")
 
     # the colour legend: quantity, unit and the scale's ends, for each colouring
     wait_text(page, "colour: bending moment [N mm]")
