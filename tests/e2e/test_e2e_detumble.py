@@ -26,7 +26,7 @@ def _open_run_settings(page) -> None:
 
 
 def _turn_about_z_deg(wxyz) -> float:
-    w, x, y, z = wxyz
+    w, _, _, z = wxyz
     return math.degrees(2.0 * math.atan2(z, w))
 
 

@@ -112,7 +112,10 @@ def test_the_time_slider_picks_the_nearest_recorded_frame():
     from studio.panels.results import ResultsPanel
 
     panel = SimpleNamespace(playback=SimpleNamespace(time=np.array([0.0, 0.02, 0.04, 0.05])))
-    frame = lambda t: ResultsPanel.frame_at(panel, t)  # noqa: E731
+
+    def frame(t):
+        return ResultsPanel.frame_at(panel, t)
+
     # would catch a floor (0.039 -> 1) or an index read as a time
     assert [frame(t) for t in (-1.0, 0.0, 0.009, 0.011, 0.039, 0.046, 0.05, 7.0)] == \
         [0, 0, 0, 1, 2, 3, 3, 3]
