@@ -85,7 +85,8 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
             return None
         try:
             return {"position": [float(c) for c in camera.position],
-                    "look_at": [float(c) for c in camera.look_at]}
+                    "look_at": [float(c) for c in camera.look_at],
+                    "far": float(camera.far)}
         except Exception:  # (no camera state received yet)
             return None
 
@@ -149,6 +150,15 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                 "n_frames": int(self.playback.n_frames) if self.playback else 0,
                 "playback_job": self.playback_job,
                 "plots": list(self.figures) if self.playback is not None else [],
+                "plot_traces": {title: [d.name for d in fig.data]
+                                for title, fig in self.figures.items()}
+                if self.playback is not None else {},
+                "time_s": self.playback_time(),
+                "slider": {"label": self.sl_time.label, "value": float(self.sl_time.value),
+                           "min": float(self.sl_time.min), "max": float(self.sl_time.max)},
+                "legend": self.legend,
+                "plots_window": self.plots_place if self.plots_panel is not None and
+                self.plots_panel.visible else None,
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
                 "edited": self.has_edits(),

@@ -180,6 +180,12 @@ def colormap(values: np.ndarray, vmax: float) -> np.ndarray:
     return (_VIRIDIS[i] * (1 - f) + _VIRIDIS[i + 1] * f).astype(np.uint8)
 
 
+def colormap_css() -> str:
+    """The colour scale of :func:`colormap` as a CSS gradient, 0 on the left (for a legend)."""
+    stops = ", ".join(f"rgb({r:.0f},{g:.0f},{b:.0f})" for r, g, b in _VIRIDIS)
+    return f"linear-gradient(to right, {stops})"
+
+
 def unit_cylinder(sections: int = CYLINDER_SECTIONS) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a closed cylinder of radius 1 and height 1 along z, centred."""
     import trimesh

@@ -117,6 +117,10 @@ class DesignPanel(BrushSelector, DesignFiles):
             lo, hi = self.design_extent
             position, look_at = ug.camera_for(lo, hi)
             client.camera.up_direction = (0.0, 0.0, 1.0)
+            # viser's far plane is 1000 view units (1 m): a design over about 0.4 m across
+            # (a detumble scene's 1.3 m stage) was clipped away whole
+            size = float(np.max(np.asarray(hi, float) - np.asarray(lo, float)))
+            client.camera.far = max(1000.0, 20.0 * size)
             # viser moves the look-at point along with the position: set it last
             client.camera.position = tuple(float(x) for x in position)
             client.camera.look_at = tuple(float(x) for x in look_at)

@@ -46,6 +46,7 @@ class ResultFrames:
         self.has_body_pose = {n: f"bodies/{n}/position" in channels for n in self.body_names}
         self.rest = None
         self.bending_max = None
+        self.deflection_max = None
 
     def refresh(self) -> None:
         """See the frames written since: close, then open again (``ResultFile.refresh``
@@ -81,26 +82,55 @@ class ResultFrames:
                 np.asarray(self.res.frame(f"bodies/{name}/orientation", i)))
 
     def colors(self, mode: str, i: int, x: np.ndarray) -> Optional[np.ndarray]:
-        """Per-segment colours of frame ``i`` (node positions ``x``)."""
+        """Per-segment colours of frame ``i`` (node positions ``x``), on the scale
+        :meth:`colour_scale` gives: 0 to the largest value of about 50 frames spread over
+        the run (and of the first frame coloured), fixed for the run so that the legend
+        holds; a larger value elsewhere takes the top colour."""
         if mode == "bending moment" and self.has_bending:
             m = np.asarray(self.res.frame("bonds/bending_moment", i), float)
             if self.bending_max is None or self.bending_max <= 0:
-                n = self.n_frames
-                step = max(1, n // 50)
-                sample = np.asarray(self.res.series("bonds/bending_moment",
-                                                    slice(0, n, step)), float)
+                sample = self._sample("bonds/bending_moment")
                 self.bending_max = float(np.nanmax(sample)) if sample.size else 0.0
                 self.bending_max = max(self.bending_max, float(np.nanmax(m)) if m.size else 0)
             return uv.colormap(m, self.bending_max)
         if mode == "deflection":
-            rest = self.rest_nodes()
-            if rest is None:
+            dev = self.deflection(x)
+            if dev is None:
                 return None
-            mid = 0.5 * (x[self.bonds[:, 0]] + x[self.bonds[:, 1]])
-            mid0 = 0.5 * (rest[self.bonds[:, 0]] + rest[self.bonds[:, 1]])
-            dev = np.linalg.norm(mid - mid0, axis=1)
-            vmax = float(self.radius.max()) * 4 if self.radius.size else 1e-3
-            return uv.colormap(dev, max(vmax, float(dev.max()) if dev.size else 0.0))
+            if self.deflection_max is None:
+                # one scale for the whole run (a legend that changed every frame would not
+                # read): the largest deflection of a sample of frames, at least 4 radii
+                floor = float(self.radius.max()) * 4 if self.radius.size else 1e-3
+                n = self.n_frames  # (frame by frame: 50 frames of every node at once
+                # could be gigabytes)
+                peak = max((float(d.max()) for d in (self.deflection(self.nodes(k))
+                                                     for k in range(0, n, max(1, n // 50)))
+                            if d is not None and d.size), default=0.0)
+                self.deflection_max = max(floor, peak, float(dev.max()) if dev.size else 0.0)
+            return uv.colormap(dev, self.deflection_max)
+        return None
+
+    def _sample(self, channel: str) -> np.ndarray:
+        """About 50 frames of ``channel``, evenly spread over the run."""
+        n = self.n_frames
+        return np.asarray(self.res.series(channel, slice(0, n, max(1, n // 50))), float)
+
+    def deflection(self, x: np.ndarray) -> Optional[np.ndarray]:
+        """Per segment, how far its midpoint moved from the first frame, m."""
+        rest = self.rest_nodes()
+        if rest is None or x is None:
+            return None
+        mid = 0.5 * (x[self.bonds[:, 0]] + x[self.bonds[:, 1]])
+        mid0 = 0.5 * (rest[self.bonds[:, 0]] + rest[self.bonds[:, 1]])
+        return np.linalg.norm(mid - mid0, axis=1)
+
+    def colour_scale(self, mode: str) -> Optional[tuple[str, str, float]]:
+        """The colour scale the bristles are drawn on: (quantity, unit, top value in that
+        unit); None when they are not coloured."""
+        if mode == "bending moment" and self.has_bending and self.bending_max is not None:
+            return ("bending moment", "N mm", self.bending_max * 1e3)
+        if mode == "deflection" and self.deflection_max is not None:
+            return ("deflection from the first frame", "mm", self.deflection_max * 1e3)
         return None
 
     def close(self) -> None:
@@ -128,26 +158,41 @@ def color_note(res: Optional[ResultFrames], mode: str) -> str:
     return ""
 
 
-FORCE_COLORS = ("#1f77b4", "#2ca02c", "#9467bd")  # F_x, F_y, F_z (none is the cursor's)
+FORCE_COLORS = ("#1f77b4", "#2ca02c", "#9467bd")  # x, y, z components (none is the cursor's)
 CURSOR_COLOR = "#d62728"
+MAGNITUDE_COLOR = "#7f7f7f"  # |omega|, |L|
+DASHES = ("solid", "dash", "dot", "dashdot")  # one per brush / body on a plot
+PLOT_PLACES = ("docked", "pop out", "minimise")
+PLOTS_DOCKED_WIDTH = 560      # px: a plot 540 px wide, 340 px tall
+PLOTS_FLOAT_SIZE = (900, 700)  # px
 
 
 def press_depth(res: "ResultFrames"):
     """For a run whose body is pressed kinematically into the brush: (body name, depth per
     frame in m), the body's displacement from its first recorded position along its overall
     direction of travel; None when no kinematic body moves."""
+    return press_depth_of(res.res, res.body_names)
+
+
+def press_depth_of(result, body_names=None):
+    """:func:`press_depth` of an open result file (``engine.open_result``): also for plots
+    made without the studio."""
     try:
-        scene = res.res.json_attr("scene") or {}
+        scene = result.json_attr("scene") or {}
     except Exception:
         scene = {}
     motions = {b.get("name"): (b.get("motion") or {}).get("type")
                for b in scene.get("bodies") or []}
-    channels = set(res.res.channels())
-    for name in res.body_names:
+    if body_names is None:
+        body_names = list(result.json_attr("body_names") or [])
+    channels = set(result.channels())
+    for name in body_names:
         c = f"bodies/{name}/position"
-        if motions.get(name) != "kinematic" or c not in channels or res.n_frames < 2:
+        if motions.get(name) != "kinematic" or c not in channels:
             continue
-        x = np.asarray(res.res.series(c), float)
+        x = np.asarray(result.series(c), float)
+        if len(x) < 2:
+            continue
         d = x - x[0]
         far = int(np.argmax(np.linalg.norm(d, axis=1)))
         span = float(np.linalg.norm(d[far]))
@@ -157,15 +202,156 @@ def press_depth(res: "ResultFrames"):
     return None
 
 
+# viser 1.1 draws a plotly figure ``aspect`` times as tall as it is wide (its docstring says
+# width / height; the page sets height = width * aspect, over the layout's height): 0.62
+# gives a 540 px wide plot 335 px of height (the studio passed 1.6: plots 1.6 times as tall
+# as wide)
+PLOT_ASPECT = 0.62
+
+
+def _components(fig, x, v, name: str, dash: str, axes: str = "xyz") -> None:
+    for k, axis in enumerate(axes):
+        fig.add_scatter(x=x, y=v[:, k], name=f"{name}{axis}", mode="lines",
+                        line=dict(color=FORCE_COLORS[k], dash=dash))
+
+
+def _magnitude(fig, x, v, name: str, dash: str) -> None:
+    fig.add_scatter(x=x, y=np.linalg.norm(v, axis=1), name=name, mode="lines",
+                    line=dict(color=MAGNITUDE_COLOR, dash=dash, width=1.5))
+
+
+def result_figures(res: "ResultFrames") -> tuple[dict, dict]:
+    """The plots of a run (plotly figures by title, SI but for degrees and millimetres)
+    and, for a plot whose x is not the time, its x at each frame (where its cursor goes):
+
+    * root force F_x, F_y, F_z per brush; contact force and contact torque on each body,
+      per component (|F| hid F_z, issue 14 item 9);
+    * root force, and the contact force on the pressed body, against the depth of a
+      kinematically pressed body;
+    * each moving body's angular velocity, signed components and |omega| [deg/s] (a
+      reversal shows as a sign change, not a dip to zero);
+    * each free body's spin angular momentum L (inertial, ``ResultFile.
+      body_angular_momentum``), components and |L| [N m s];
+    * each controller's accumulated Delta-v, the integral of |F|/m [m/s] (docs/mission.md);
+    * the energies."""
+    import plotly.graph_objects as go
+
+    r, t = res.res, res.time
+    channels = set(r.channels())
+    try:
+        scene = r.json_attr("scene") or {}
+    except Exception:
+        scene = {}
+    motions = {b.get("name"): (b.get("motion") or {}).get("type")
+               for b in scene.get("bodies") or []}
+    figs, cursor_x = {}, {}
+
+    f, forces = go.Figure(), {}
+    for n, brush in enumerate(res.brush_names):
+        c = f"brushes/{brush}/root_force"
+        if c in channels:
+            forces[brush] = np.asarray(r.series(c), float)
+            _components(f, t, forces[brush], f"{brush} F_", DASHES[n % len(DASHES)])
+    if forces:
+        figs["root force [N]"] = f
+    for key, title, symbol in (("contact_force", "contact force on bodies [N]", "F_"),
+                               ("contact_torque", "contact torque on bodies [N m]", "T_")):
+        f, series = go.Figure(), {}
+        for name in res.body_names:
+            c = f"bodies/{name}/{key}"
+            if c in channels:
+                series[name] = np.asarray(r.series(c), float)
+        # a body that never touched anything (a chaser whose hull has no contact) is left
+        # out, unless none touched
+        touched = {n: v for n, v in series.items() if np.any(v)} or series
+        for n, name in enumerate(res.body_names):
+            if name in touched:
+                _components(f, t, touched[name], f"{name} {symbol}", DASHES[n % len(DASHES)])
+        if f.data:
+            figs[title] = f
+
+    press = press_depth(res)
+    if press is not None:
+        body, depth = press
+        pushed = f"bodies/{body}/contact_force"
+        plots = [(f"root force [N] against depth of {body} [mm]", forces, "F_")]
+        if pushed in channels:  # what a scale under the press reads (no brush weight)
+            plots.append((f"contact force on {body} [N] against its depth [mm]",
+                          {body: np.asarray(r.series(pushed), float)}, "F_"))
+        for title, series, symbol in plots:
+            if not series:
+                continue
+            f = go.Figure()
+            for n, (name, F) in enumerate(series.items()):
+                _components(f, depth * 1e3, F, f"{name} {symbol}", DASHES[n % len(DASHES)])
+            f.update_layout(xaxis_title=f"depth of {body} [mm]")
+            figs[title] = f
+            cursor_x[title] = depth * 1e3
+
+    f = go.Figure()
+    for n, name in enumerate(res.body_names):
+        c = f"bodies/{name}/angular_velocity"
+        if c in channels and motions.get(name) != "fixed":
+            w = np.degrees(np.asarray(r.series(c), float))
+            if not np.any(w):
+                continue
+            dash = DASHES[n % len(DASHES)]
+            _magnitude(f, t, w, f"{name} |ω|", dash)  # (first: the components over it)
+            _components(f, t, w, f"{name} ω_", dash)
+    if f.data:
+        figs["angular velocity [deg/s]"] = f
+
+    f = go.Figure()
+    for n, name in enumerate(res.body_names):
+        if motions.get(name) != "free" or f"bodies/{name}/angular_velocity" not in channels:
+            continue
+        try:
+            L = np.asarray(r.body_angular_momentum(name), float)
+        except Exception:  # (a file without the mass properties it needs)
+            continue
+        dash = DASHES[n % len(DASHES)]
+        _magnitude(f, t, L, f"{name} |L|", dash)
+        _components(f, t, L, f"{name} L_", dash)
+    if f.data:
+        figs["angular momentum [N m s]"] = f
+
+    f = go.Figure()
+    for ctl in scene.get("controllers") or []:
+        c = f"controllers/{ctl.get('name')}/delta_v"
+        if c in channels:
+            f.add_scatter(x=t, y=np.asarray(r.series(c), float),
+                          name=f"{ctl.get('body')} Δv ({ctl.get('name')})", mode="lines",
+                          line=dict(color=FORCE_COLORS[0]))
+    if f.data:
+        figs["Δv of the controlled body [m/s]"] = f
+
+    f = go.Figure()
+    for e in ("kinetic", "bond", "contact", "gravity", "total"):
+        c = f"energy/{e}"
+        if c in channels:
+            f.add_scatter(x=t, y=np.asarray(r.series(c)), name=e, mode="lines")
+    if f.data:
+        figs["energy [J]"] = f
+
+    for title, fig in figs.items():
+        fig.update_layout(title=dict(text=title, font=dict(size=14)),
+                          margin=dict(l=50, r=10, t=34, b=40),
+                          legend=dict(font=dict(size=11)))
+        if title not in cursor_x:
+            fig.update_layout(xaxis_title="time [s]")
+    return figs, cursor_x
+
+
 class ResultsPanel:
     """Results tab of the studio (mixin)."""
 
     def _build_results_gui(self, gui) -> None:
         with self.tab_results:
             self.md_result = gui.add_markdown("No run loaded. Finished runs load here.")
-            self.sl_time = gui.add_slider("frame", min=0, max=1, step=1, initial_value=0,
-                                          disabled=True)
+            self.sl_time = gui.add_slider("time [s]", min=0.0, max=1.0, step=0.01,
+                                          initial_value=0.0, disabled=True)
             self.sl_time.on_update(self._on_slider)
+            self.md_time = gui.add_markdown("")
             self.cb_play = gui.add_checkbox("play", False, disabled=True)
             self.cb_play.on_update(self._on_play)
             self.dd_speed = gui.add_dropdown("speed (simulated s per s)", SPEEDS,
@@ -173,13 +359,58 @@ class ResultsPanel:
             self.dd_color = gui.add_dropdown("colour bristles by", COLOR_MODES,
                                              initial_value="bending moment")
             self.dd_color.on_update(lambda e: self._show_frame(self.frame_index))
+            self.html_legend = gui.add_html("", visible=False)
             self.md_color = gui.add_markdown("", visible=False)
+            self.bg_plots = gui.add_button_group("plots window", PLOT_PLACES)
+            self.bg_plots.on_click(lambda e: self._place_plots(e.target.value))
             self.bt_download_h5 = gui.add_button("Download result HDF5", disabled=True)
             self.bt_download_h5.on_click(self._on_download_h5)
             self.bt_design = gui.add_button("Back to the design view")
             self.bt_design.on_click(lambda e: self.set_mode("design"))
             self.plots: dict[str, Any] = {}
             self.figures: dict[str, Any] = {}
+            self.legend: Optional[dict] = None
+            self.plots_place = "docked"
+        self._new_plots_window(gui)
+
+    def _new_plots_window(self, gui) -> None:
+        """The plots get a window of their own beside the 3D view (issue 14, item 9: the
+        side panel's 380 px are too narrow to read them); with a viser before panels, the
+        Results tab."""
+        self.plots_panel = gui.add_panel(visible=False) if hasattr(gui, "add_panel") \
+            else None
+        self.plots_tab = self.plots_panel.add_tab("Plots") if self.plots_panel is not None \
+            else self.tab_results
+
+    def _place_plots(self, where: str) -> None:
+        """Dock the plots window at the right, float it large over the view, or minimise
+        it."""
+        panel = self.plots_panel
+        if panel is None or where not in PLOT_PLACES:
+            return
+        if where == "docked" and self.plots_place == "pop out":
+            # viser 1.1's page docks a window that floated at its floating width, whatever
+            # width it is then given: a new window docks at the width asked for
+            with self.lock:
+                panel.remove()
+                self.plots.clear()
+                self._new_plots_window(self.server.gui)
+                panel = self.plots_panel
+                self.plots_place = where
+                if self.playback is not None:
+                    self._make_plots()  # (shows and places the new window)
+                    self._move_cursor(float(self.playback.time[max(self.frame_index, 0)]))
+                return
+        self.plots_place = where
+        if where == "docked":
+            panel.dock_right()
+            panel.set_width(PLOTS_DOCKED_WIDTH)
+            panel.expand()
+        elif where == "pop out":
+            panel.float(x=20, y=20, width=PLOTS_FLOAT_SIZE[0], height=PLOTS_FLOAT_SIZE[1])
+            panel.expand()
+        else:
+            panel.minimize()
 
     # ----------------------------------------------------------------- modes and frames
     def set_mode(self, mode: str, redraw: bool = True) -> None:
@@ -217,8 +448,7 @@ class ResultsPanel:
             self.playback, self.playback_job = frames, job_id
             self.set_mode("playback")
             n = frames.n_frames
-            self.sl_time.max = max(n - 1, 1)
-            self.sl_time.disabled = n < 2
+            self._set_time_slider(np.asarray(frames.time, float))
             self.cb_play.disabled = n < 2
             self.bt_download_h5.disabled = False
             info = self.jobs.get(job_id)
@@ -229,9 +459,46 @@ class ResultsPanel:
                 (f". {_md_escape(info.error)}" if info.error else ""))
             self._make_plots()
             self.frame_index = -1
-            self.sl_time.value = 0
+            self.sl_time.value = self.sl_time.min
             self._show_frame(0)
         return True
+
+    def _set_time_slider(self, t: np.ndarray) -> None:
+        """The timeline over the run's recorded times, in seconds: one step per record
+        interval, as many decimals as the step needs."""
+        n = len(t)
+        t0, t1 = (float(t[0]), float(t[-1])) if n else (0.0, 0.0)
+        step = float(np.median(np.diff(t))) if n > 1 else 1.0
+        if not step > 0:
+            step = (t1 - t0) / max(n - 1, 1) or 1.0
+        digits = int(min(max(np.ceil(-np.log10(step)) + 1, 1), 9))
+        # the ends rounded to the digits shown (the slider's tooltip shows them as they
+        # are: 0.9999582512234378 for a run that stopped at 1 s); a time picks the nearest
+        # frame, so the last frame stays at the end
+        lo, hi = round(t0, digits), round(t1, digits)
+        self.sl_time.min, self.sl_time.max = lo, (hi if hi > lo else lo + step)
+        self.sl_time.step = step
+        self.sl_time.precision = digits
+        self.sl_time.disabled = n < 2
+
+    def frame_at(self, t: float) -> int:
+        """The recorded frame nearest to time ``t`` [s] of the loaded run."""
+        times = np.asarray(self.playback.time, float) if self.playback is not None else []
+        if len(times) == 0:
+            return 0
+        i = int(np.searchsorted(times, t))
+        if i >= len(times):
+            return len(times) - 1
+        if i > 0 and t - times[i - 1] <= times[i] - t:
+            return i - 1
+        return i
+
+    def playback_time(self) -> Optional[float]:
+        """The simulated time [s] of the frame the loaded run shows (None: none loaded)."""
+        res = self.playback
+        if res is None or res.n_frames == 0 or self.frame_index < 0:
+            return None
+        return float(res.time[min(self.frame_index, res.n_frames - 1)])
 
     def _on_slider(self, event) -> None:
         """Scrubbing shows the loaded run: after a design edit (which shows the design) the
@@ -239,12 +506,12 @@ class ResultsPanel:
         if self.mode != "playback" and event.client is not None and self.playback is not None:
             self.set_mode("playback")
         if self.mode == "playback":
-            self._show_frame(int(event.target.value))
+            self._show_frame(self.frame_at(float(event.target.value)))
 
     def _on_play(self, event) -> None:
         if event.client is not None and self.cb_play.value and self.playback is not None:
             self.set_mode("playback")
-            self._show_frame(int(self.sl_time.value))
+            self._show_frame(self.frame_at(float(self.sl_time.value)))
 
     def show_view(self, which: str) -> bool:
         """Show the design or the run (the loaded playback, else the running job live).
@@ -255,7 +522,7 @@ class ResultsPanel:
                 return True
             if self.playback is not None:
                 self.set_mode("playback")
-                self._show_frame(max(int(self.sl_time.value), 0))
+                self._show_frame(self.frame_at(float(self.sl_time.value)))
                 return True
             if self.active_job is not None:
                 self.set_mode("live")
@@ -276,11 +543,14 @@ class ResultsPanel:
                     if note else ""
                 self.md_color.visible = bool(note)
             x = res.nodes(i)
+            scale = None
             if x is not None and len(res.bonds):
                 colors = res.colors(self.dd_color.value, i, x)
+                scale = res.colour_scale(self.dd_color.value) if colors is not None else None
                 centres, wxyz, scales = uv.segment_instances(x, res.radius, res.bonds)
                 self.view.set_bristles(centres, wxyz, scales, colors)
                 self.n_segments_drawn = len(centres)
+            self._show_legend(scale)
             meshes = []
             for name, (verts, tris) in res.bodies.items():
                 pose = res.body_pose(name, i)
@@ -289,84 +559,64 @@ class ResultsPanel:
             self.view.set_bodies(meshes)
             if source is None:
                 self.frame_index = i
+                t = res.time
+                p = self.sl_time.precision
+                self.md_time.content = (f"**t = {float(t[i]):.{p}f} s** of "
+                                        f"{float(t[0]):.{p}f} … {float(t[-1]):.{p}f} s")
                 now = time.monotonic()
                 if not self.cb_play.value or now - self.last_cursor > PLOT_CURSOR_S:
                     self.last_cursor = now
                     self._move_cursor(float(res.time[i]))
 
+    def _show_legend(self, scale: Optional[tuple[str, str, float]]) -> None:
+        """The colour bar under *colour bristles by*: the quantity, its unit and the values
+        at both ends and the middle (hidden when the bristles are not coloured)."""
+        legend = None if scale is None else \
+            {"quantity": scale[0], "unit": scale[1], "max": float(scale[2])}
+        if legend == self.legend:
+            return
+        self.legend = legend
+        if legend is None:
+            self.html_legend.visible = False
+            return
+        top = legend["max"]
+        ticks = "".join(f"<span>{v:.3g}</span>" for v in (0.0, top / 2, top))
+        self.html_legend.content = (
+            f"<div style='font-size:0.8em;padding:0 0.75em 0.4em'>"
+            f"<div>colour: {legend['quantity']} [{legend['unit']}]</div>"
+            f"<div style='height:12px;border:1px solid #888;"
+            f"background:{uv.colormap_css()}'></div>"
+            f"<div style='display:flex;justify-content:space-between'>{ticks}</div></div>")
+        self.html_legend.visible = True
+
     # ----------------------------------------------------------------- plots
     def _make_plots(self) -> None:
-        import plotly.graph_objects as go
-
         res = self.playback
+        figs, self.cursor_x = result_figures(res)
         t = res.time
-        channels = set(res.res.channels())
-        figs = {}
-        self.cursor_x: dict[str, np.ndarray] = {}  # figure -> x of each frame (else time)
-        forces = {}
-        f = go.Figure()
-        for brush in res.brush_names:
-            c = f"brushes/{brush}/root_force"
-            if c in channels:
-                F = np.asarray(res.res.series(c))
-                forces[brush] = F
-                for k, axis in enumerate("xyz"):
-                    f.add_scatter(x=t, y=F[:, k], name=f"{brush} F_{axis}", mode="lines",
-                                  line=dict(color=FORCE_COLORS[k]))
-        for name in res.body_names:
-            c = f"bodies/{name}/contact_force"
-            if c in channels:
-                F = np.asarray(res.res.series(c))
-                for k, axis in enumerate("xyz"):
-                    f.add_scatter(x=t, y=F[:, k], name=f"{name} contact F_{axis}",
-                                  mode="lines", line=dict(color=FORCE_COLORS[k], dash="dot"))
-        figs["root force [N]"] = f
-        press = press_depth(res)
-        if press is not None and forces:
-            body, depth = press
-            f = go.Figure()
-            for brush, F in forces.items():
-                for k, axis in enumerate("xyz"):
-                    f.add_scatter(x=depth * 1e3, y=F[:, k], name=f"{brush} F_{axis}",
-                                  mode="lines", line=dict(color=FORCE_COLORS[k]))
-            title = f"root force [N] against depth of {body} [mm]"
-            f.update_layout(xaxis_title=f"depth of {body} [mm]")
-            figs[title] = f
-            self.cursor_x[title] = depth * 1e3
-        f = go.Figure()
-        for name in res.body_names:
-            c = f"bodies/{name}/angular_velocity"
-            if c in channels:
-                w = np.asarray(res.res.series(c))
-                f.add_scatter(x=t, y=np.linalg.norm(w, axis=1), name=f"{name} |ω|",
-                              mode="lines")
-        figs["body angular velocity [rad/s]"] = f
-        f = go.Figure()
-        for e in ("kinetic", "bond", "contact", "gravity", "total"):
-            c = f"energy/{e}"
-            if c in channels:
-                f.add_scatter(x=t, y=np.asarray(res.res.series(c)), name=e, mode="lines")
-        figs["energy [J]"] = f
         gui = self.server.gui
         for title, fig in figs.items():
-            fig.update_layout(title=dict(text=title, font=dict(size=13)),
-                              margin=dict(l=40, r=10, t=30, b=30), height=260,
-                              legend=dict(font=dict(size=9)))
-            if title not in self.cursor_x:
-                fig.update_layout(xaxis_title="time [s]")
             x0 = self.cursor_x[title][0] if title in self.cursor_x and len(t) else \
                 (float(t[0]) if len(t) else 0.0)
             fig.add_vline(x=float(x0), line_color=CURSOR_COLOR, line_width=1)
             self.figures[title] = fig
             if title in self.plots:
                 self.plots[title].figure = fig
+                self.plots[title].visible = True
             else:
-                with self.tab_results:
-                    self.plots[title] = gui.add_plotly(fig, aspect=1.6)
+                with self.plots_tab:
+                    self.plots[title] = gui.add_plotly(fig, aspect=PLOT_ASPECT)
+        for title in list(self.figures):  # a plot the previous run had and this one lacks
+            if title not in figs:
+                del self.figures[title]
+                self.plots[title].visible = False
+        if self.plots_panel is not None and not self.plots_panel.visible:
+            self.plots_panel.visible = True
+            self._place_plots(self.plots_place)
 
     def _move_cursor(self, t: float) -> None:
         times = self.playback.time if self.playback is not None else None
-        for title, fig in self.figures.items():
+        for title, fig in list(self.figures.items()):
             x = t
             xs = getattr(self, "cursor_x", {}).get(title)
             if xs is not None and times is not None and len(times):
@@ -401,4 +651,4 @@ class ResultsPanel:
             sim = float(t[0])
         i = int(np.clip(np.searchsorted(t, sim, side="right") - 1, 0, len(t) - 1))
         if i != self.frame_index:
-            self.sl_time.value = i  # triggers _show_frame through the callback
+            self.sl_time.value = float(t[i])  # triggers _show_frame through the callback

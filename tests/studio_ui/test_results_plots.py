@@ -46,3 +46,76 @@ def test_no_depth_for_free_or_still_bodies():
     assert press_depth(_frames(still)) is None
     moving = np.stack([np.zeros(4), np.zeros(4), np.linspace(0, 1, 4)], 1)
     assert press_depth(_frames(moving, motion="free")) is None
+
+
+class _SpinResult:
+    """A free body whose spin about z reverses (+1 rad/s, then -1 rad/s), with its contact
+    force and torque, a brush's root force and a controller's Delta-v."""
+
+    def __init__(self):
+        self.t = np.linspace(0.0, 1.0, 5)
+        wz = np.array([1.0, 0.5, 0.0, -0.5, -1.0])
+        self.data = {
+            "bodies/disc/angular_velocity": np.stack([0 * wz, 0 * wz, wz], 1),
+            "bodies/disc/contact_force": np.tile([0.1, -0.2, 0.3], (5, 1)),
+            "bodies/disc/contact_torque": np.tile([0.0, 0.0, -0.4], (5, 1)),
+            "brushes/brush/root_force": np.tile([1.0, 2.0, -3.0], (5, 1)),
+            "controllers/hold/delta_v": np.linspace(0.0, 0.2, 5),
+        }
+        self.scene = {"bodies": [{"name": "disc", "motion": {"type": "free"}}],
+                      "controllers": [{"name": "hold", "body": "disc"}]}
+
+    def json_attr(self, name):
+        return self.scene
+
+    def channels(self):
+        return ["time", *self.data]
+
+    def series(self, channel):
+        return self.data[channel]
+
+    def body_angular_momentum(self, name):
+        return 2.0 * self.data["bodies/disc/angular_velocity"]  # I = 2 kg m^2 about z
+
+
+def _spin_frames():
+    r = _SpinResult()
+    return SimpleNamespace(res=r, time=r.t, body_names=["disc"], brush_names=["brush"],
+                           n_frames=5)
+
+
+def test_plots_show_signed_components_of_a_reversing_spin():
+    from studio.panels.results import result_figures
+
+    figs, cursor_x = result_figures(_spin_frames())
+    traces = {d.name: np.asarray(d.y) for d in figs["angular velocity [deg/s]"].data}
+    # a reversal is a sign change of the component, not a dip of |omega| to zero
+    assert traces["disc ω_z"] == pytest.approx(np.degrees([1.0, 0.5, 0.0, -0.5, -1.0]))
+    assert traces["disc |ω|"] == pytest.approx(np.degrees([1.0, 0.5, 0.0, 0.5, 1.0]))
+    L = {d.name: np.asarray(d.y) for d in figs["angular momentum [N m s]"].data}
+    assert L["disc L_z"][-1] == pytest.approx(-2.0)
+    # forces and torques per component (|F| hid F_z): each component its own trace
+    F = {d.name: np.asarray(d.y) for d in figs["root force [N]"].data}
+    assert set(F) == {"brush F_x", "brush F_y", "brush F_z"}
+    assert F["brush F_z"] == pytest.approx([-3.0] * 5)
+    T = {d.name: np.asarray(d.y) for d in figs["contact torque on bodies [N m]"].data}
+    assert T["disc T_z"] == pytest.approx([-0.4] * 5)
+    dv = figs["Δv of the controlled body [m/s]"].data[0]
+    assert dv.name.startswith("disc Δv") and dv.y[-1] == pytest.approx(0.2)
+    # no trace of the cursor's red, and every plot's x is the time (no press here)
+    from studio.panels.results import CURSOR_COLOR
+    assert not cursor_x
+    assert all(d.line.color != CURSOR_COLOR for f in figs.values() for d in f.data)
+
+
+def test_the_time_slider_picks_the_nearest_recorded_frame():
+    from studio.panels.results import ResultsPanel
+
+    panel = SimpleNamespace(playback=SimpleNamespace(time=np.array([0.0, 0.02, 0.04, 0.05])))
+
+    def frame(t):
+        return ResultsPanel.frame_at(panel, t)
+
+    # would catch a floor (0.039 -> 1) or an index read as a time
+    assert [frame(t) for t in (-1.0, 0.0, 0.009, 0.011, 0.039, 0.046, 0.05, 7.0)] == \
+        [0, 0, 0, 1, 2, 3, 3, 3]
