@@ -18,7 +18,8 @@ from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
 from .mesh_contact import (contact_points, initial_overlap, mesh_contact_stiffness,
                            pair_stiffness, point_contact_length)
-from .rotations import matrix_to_quat, qlog, qmul, quat_from_two_vectors, quat_to_matrix
+from .layout import BristleLayout, brush_layout, quat_conj, quat_mul, quat_to_matrix, rotate_rows
+from .rotations import matrix_to_quat, qlog
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
                     PairList,
@@ -118,7 +119,23 @@ def _rot(q) -> np.ndarray:
 
 
 def _qmul(a, b) -> np.ndarray:
-    return np.array(qmul(*[float(c) for c in a], *[float(c) for c in b]))
+    return quat_mul(a, b)
+
+
+def brush_layout_of(scene: Scene, brush) -> BristleLayout:
+    """The rest layout (``engine.layout``) of one of the scene's brushes, in world
+    coordinates: the base pose is relative to the mount body's pose when it has one."""
+    mount_pose = (None, None)
+    if brush.mount is not None:
+        body = next(b for b in scene.bodies if b.name == brush.mount)
+        mount_pose = (body.pose.position, body.pose.orientation)
+    return brush_layout(rows=brush.rows, columns=brush.columns, pitch=brush.pitch,
+                        pattern=brush.pattern, bristle_length=brush.bristle_length,
+                        root_radius=brush.root_radius, tip_radius=brush.tip_radius,
+                        n_nodes=brush.n_nodes, tip_variance=brush.tip_variance,
+                        seed=brush.seed, base_position=brush.base.position,
+                        base_orientation=brush.base.orientation,
+                        mount_position=mount_pose[0], mount_orientation=mount_pose[1])
 
 
 def _principal(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -231,7 +248,7 @@ def frustum_bond_stiffness(E, G, r0, r1, length):
 
 
 def _conj(q) -> np.ndarray:
-    return np.array([q[0], -q[1], -q[2], -q[3]], float)
+    return quat_conj(q)
 
 
 # ----------------------------------------------------------------------------- build
@@ -410,17 +427,17 @@ def build(scene: Scene) -> System:
         g_tris = np.zeros(0, np.int64)
 
     # ------------------------------------------------------------------ bristles
-    xs, rads, masses, inertias, node_bristle, node_mat = [], [], [], [], [], []
-    qs = []
+    xs, qs, rads, masses, inertias, node_bristle, node_mat = [], [], [], [], [], [], []
     bi_l, bj_l, kn_l, ks_l, kb_l, ksb_l, kt_l, L0_l = [], [], [], [], [], [], [], []
     cn_l, cs_l, cb_l, ct_l = [], [], [], []
     bond_bristle, bond_mat, bond_mount, has_next = [], [], [], []
-    root_node, root_body, root_lpos, root_lq, root_brush = [], [], [], [], []
+    root_node, root_body, root_lpos, root_lq = [], [], [], []
     brushes: list[BrushInfo] = []
     bristle_first = [0]
     bristle_brush = []
     n_node = 0
     n_bristle = 0
+    n_root = 0
     for bidx, br in enumerate(scene.brushes):
         mat = scene.materials[br.material]
         E = mat.youngs_modulus
@@ -428,22 +445,11 @@ def build(scene: Scene) -> System:
         rho = mat.density
         zb = mat.bond_damping
         mount = body_names.index(br.mount) if br.mount is not None else -1
-        qb = np.asarray(br.base.orientation, float)
-        pb = np.asarray(br.base.position, float)
-        if mount >= 0:
-            body = scene.bodies[mount]
-            q_shape = np.asarray(body.pose.orientation, float)
-            p_shape = np.asarray(body.pose.position, float)
-            pb_w = p_shape + _rot(q_shape) @ pb
-            qb_w = _qmul(q_shape, qb)
-        else:
-            pb_w, qb_w = pb, qb
-        Rb = _rot(qb_w)
-        rng = np.random.default_rng(br.seed)
+        lay = brush_layout_of(scene, br)
         n = br.n_nodes
-        frac = np.linspace(0.0, 1.0, n)
-        r_node = br.root_radius + (br.tip_radius - br.root_radius) * frac
-        seg_len = br.bristle_length / (n - 1)
+        nb = br.n_bristles
+        r_node = lay.radius
+        seg_len = lay.segment_length
         r0, r1 = r_node[:-1], r_node[1:]
         seg_mass = rho * math.pi * seg_len * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0  # frustum
         m_node = np.zeros(n)
@@ -457,73 +463,58 @@ def build(scene: Scene) -> System:
         Ieff = np.where(np.arange(n - 1) == 0, Ij, Ii * Ij / (Ii + Ij))
         first_bristle = n_bristle
         first_node = n_node
-        roots_here = []
-        for row in range(br.rows):
-            for col in range(br.columns):
-                x_loc = (col - 0.5 * (br.columns - 1)) * br.pitch[0]
-                if br.pattern == "staggered" and row % 2 == 1:
-                    x_loc += 0.5 * br.pitch[0]
-                y_loc = (row - 0.5 * (br.rows - 1)) * br.pitch[1]
-                root_l = np.array([x_loc, y_loc, 0.0])
-                tip_l = root_l + np.array([0.0, 0.0, br.bristle_length])
-                if br.tip_variance > 0:
-                    tip_l[:2] += rng.normal(0.0, math.sqrt(br.tip_variance), 2)
-                d_l = tip_l - root_l
-                d_l /= np.linalg.norm(d_l)
-                q_node = _qmul(qb_w, quat_from_two_vectors(np.array([0, 0, 1.0]), d_l))
-                root_w = pb_w + Rb @ root_l
-                d_w = Rb @ d_l
-                for kk in range(n):
-                    xs.append(root_w + d_w * (kk * seg_len))
-                    qs.append(q_node)
-                rads.append(r_node)
-                masses.append(m_node)
-                inertias.append(I_node)
-                node_bristle.append(np.full(n, n_bristle))
-                node_mat.append(np.full(n, mat_index[br.material]))
-                base = n_node
-                bi_l.append(base + np.arange(n - 1))
-                bj_l.append(base + np.arange(1, n))
-                kn_l.append(kn)
-                ks_l.append(ks)
-                kb_l.append(kb)
-                ksb_l.append(ksb)
-                kt_l.append(kt)
-                L0_l.append(np.full(n - 1, seg_len))
-                cn_l.append(2 * zb * np.sqrt(kn * meff))
-                cs_l.append(2 * zb * np.sqrt(ks * meff))
-                cb_l.append(2 * zb * np.sqrt(kb * Ieff))
-                ct_l.append(2 * zb * np.sqrt(kt * Ieff))
-                bond_bristle.append(np.full(n - 1, n_bristle))
-                bond_mat.append(np.full(n - 1, mat_index[br.material]))
-                bond_mount.append(np.full(n - 1, mount))
-                hn = np.ones(n - 1, np.bool_)
-                hn[-1] = False
-                has_next.append(hn)
-                root_node.append(base)
-                root_body.append(mount)
-                if mount >= 0:
-                    Rk = _rot(q[mount])
-                    root_lpos.append(Rk.T @ (root_w - pos[mount]))
-                    root_lq.append(_qmul(_conj(q[mount]), q_node))
-                else:
-                    root_lpos.append(root_w)
-                    root_lq.append(q_node)
-                root_brush.append(bidx)
-                roots_here.append(len(root_node) - 1)
-                n_node += n
-                n_bristle += 1
-                bristle_first.append(n_node)
-                bristle_brush.append(bidx)
+        bristle_ids = n_bristle + np.arange(nb)
+        per_bond = lambda a: np.tile(a, nb)  # noqa: E731  (the same bonds on every bristle)
+        xs.append(lay.positions)
+        qs.append(lay.node_orientations)
+        rads.append(lay.node_radius)
+        masses.append(np.tile(m_node, nb))
+        inertias.append(np.tile(I_node, nb))
+        node_bristle.append(np.repeat(bristle_ids, n))
+        node_mat.append(np.full(nb * n, mat_index[br.material]))
+        pairs_here = lay.bonds(first_node)
+        bi_l.append(pairs_here[:, 0])
+        bj_l.append(pairs_here[:, 1])
+        kn_l.append(per_bond(kn))
+        ks_l.append(per_bond(ks))
+        kb_l.append(per_bond(kb))
+        ksb_l.append(per_bond(ksb))
+        kt_l.append(per_bond(kt))
+        L0_l.append(np.full(nb * (n - 1), seg_len))
+        cn_l.append(per_bond(2 * zb * np.sqrt(kn * meff)))
+        cs_l.append(per_bond(2 * zb * np.sqrt(ks * meff)))
+        cb_l.append(per_bond(2 * zb * np.sqrt(kb * Ieff)))
+        ct_l.append(per_bond(2 * zb * np.sqrt(kt * Ieff)))
+        bond_bristle.append(np.repeat(bristle_ids, n - 1))
+        bond_mat.append(np.full(nb * (n - 1), mat_index[br.material]))
+        bond_mount.append(np.full(nb * (n - 1), mount))
+        hn = np.ones(n - 1, np.bool_)
+        hn[-1] = False
+        has_next.append(per_bond(hn))
+        root_node.append(first_node + n * np.arange(nb))
+        root_body.append(np.full(nb, mount))
+        if mount >= 0:
+            Rk = _rot(q[mount])
+            root_lpos.append(rotate_rows(Rk.T, lay.roots - pos[mount]))
+            root_lq.append(quat_mul(_conj(q[mount]), lay.orientations))
+        else:
+            root_lpos.append(lay.roots)
+            root_lq.append(lay.orientations)
+        n_node += nb * n
+        n_bristle += nb
+        bristle_first.extend(first_node + n * (1 + np.arange(nb)))
+        bristle_brush.extend([bidx] * nb)
+        pb_w, qb_w = lay.base_position, lay.base_orientation
         base_local = (_rot(q[mount]).T @ (pb_w - pos[mount])) if mount >= 0 else pb_w
-        brushes.append(BrushInfo(br.name, first_bristle, br.n_bristles, n, first_node, pb_w,
-                                 qb_w, mount, np.asarray(roots_here, np.int64), base_local))
+        brushes.append(BrushInfo(br.name, first_bristle, nb, n, first_node, pb_w, qb_w, mount,
+                                 n_root + np.arange(nb, dtype=np.int64), base_local))
+        n_root += nb
 
     N = n_node
     cat = lambda lst, shape, dt=float: (np.concatenate(lst).astype(dt) if lst
                                         else np.zeros(shape, dt))
-    x = np.asarray(xs, float).reshape(N, 3)
-    qn = np.asarray(qs, float).reshape(N, 4)
+    x = np.concatenate(xs) if xs else np.zeros((0, 3))
+    qn = np.concatenate(qs) if qs else np.zeros((0, 4))
     rad = cat(rads, 0)
     nmass = cat(masses, 0)
     ninertia = cat(inertias, 0)
@@ -537,7 +528,7 @@ def build(scene: Scene) -> System:
     bond_prev[bj] = np.arange(B)
     inv_mass = np.where(nmass > 0, 1.0 / np.where(nmass > 0, nmass, 1.0), 0.0)
     inv_inertia = np.where(ninertia > 0, 1.0 / np.where(ninertia > 0, ninertia, 1.0), 0.0)
-    root_node_a = np.asarray(root_node, np.int64)
+    root_node_a = cat(root_node, 0, np.int64)
     inv_mass[root_node_a] = 0.0
     inv_inertia[root_node_a] = 0.0
     node_free = inv_mass > 0
@@ -554,9 +545,8 @@ def build(scene: Scene) -> System:
                   material=cat(bond_mat, 0, np.int64), mount=cat(bond_mount, 0, np.int64),
                   mid=np.zeros((B, 3)), bound=np.zeros(B),
                   rmax=np.maximum(rad[bi], rad[bj]) if B else np.zeros(0))
-    roots = Roots(node=root_node_a, body=np.asarray(root_body, np.int64),
-                  local_pos=np.asarray(root_lpos, float).reshape(-1, 3),
-                  local_q=np.asarray(root_lq, float).reshape(-1, 4))
+    roots = Roots(node=root_node_a, body=cat(root_body, 0, np.int64),
+                  local_pos=cat(root_lpos, (0, 3)), local_q=cat(root_lq, (0, 4)))
     bodies = Bodies(
         pos=pos, q=q, v=vel, w=omg, L=L, mass=mass, Ip=Ip, motion=motion,
         f=np.zeros((K, 3)), tq=np.zeros((K, 3)), hinge_axis=h_axis, hinge_point=h_point,
