@@ -39,6 +39,7 @@ MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
 # bristle radius
 CHECK_EVERY = 16
 TIME_EVERY = 64
+INITIAL_LIST_CAPACITY = 16   # neighbour list rows at first; grow_lists enlarges them
 
 
 @dataclass
@@ -125,10 +126,6 @@ def build(scene: Scene) -> System:
     start_on_profiles(body_part.bodies)
     _check_initial_overlap(scene, bristles, body_part, warnings)
     needs = contact_needs(scene, bristles, body_part, tables, warnings)
-    if needs.mesh_mesh and needs.friction_body_body:
-        K = len(body_part.names)
-        body_part.bodies = body_part.bodies._replace(
-            ft_mesh=np.zeros((int(body_part.bodies.point_start[-1]), K, 3)))
     node_free = bristles.nodes.inv_mass > 0
     loads = build_loads(scene, bristles.brushes, bristles.nodes.inv_mass)
     dt, dt_stable, limited_by = _timestep(scene, bristles, body_part, tables, needs, warnings)
@@ -140,6 +137,8 @@ def build(scene: Scene) -> System:
                         needs.mesh_mesh, needs.friction_bristle, needs.friction_body,
                         needs.friction_body_body, flags.rigid_bodies, flags.mounted_roots,
                         flags.gravity, flags.track_energy)
+    # the step loop's limits: [max overlap / radius, max node step / radius, max body step
+    # (m), skin (m), local damping]
     limits = np.array([MAX_OVERLAP_RATIO, MAX_NODE_STEP_RATIO,
                        MAX_BODY_STEP_RATIO * (r_min if bristles.nodes.rad.size else 1.0), skin,
                        scene.environment.local_damping])
@@ -147,8 +146,9 @@ def build(scene: Scene) -> System:
         _check_mesh_overlap(body_part, warnings)
     system = System(scene=scene, nodes=bristles.nodes, bonds=bristles.bonds,
                     roots=bristles.roots, bodies=body_part.bodies,
-                    pairs=_pair_list(16, needs.friction_bristle),
-                    body_pairs=_body_list(16, needs.friction_body), loads=loads, tables=tables,
+                    pairs=_pair_list(INITIAL_LIST_CAPACITY, needs.friction_bristle),
+                    body_pairs=_body_list(INITIAL_LIST_CAPACITY, needs.friction_body),
+                    loads=loads, tables=tables,
                     flags=flags, acc=np.zeros(ACC_SIZE), err=np.zeros(4),
                     stage_time=np.zeros(len(STAGES)), limits=limits, dt=dt,
                     dt_limited_by=limited_by, dt_stable=dt_stable, stages=stages,

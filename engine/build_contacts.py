@@ -39,8 +39,9 @@ class ContactNeeds:
 
 def contact_needs(scene, bristles, body_part, tables, warnings: list) -> ContactNeeds:
     """Which contacts can happen. Fills the mesh-mesh pair tables of the bodies
-    (``mesh_kn``, ``mesh_len``); warns about mesh pairs that cannot touch (not watertight);
-    refuses a ``no_contact_with`` that names a sphere body."""
+    (``mesh_kn``, ``mesh_len``) and sizes their tangential history (``ft_mesh``, replacing
+    ``body_part.bodies``); warns about mesh pairs that cannot touch (not watertight); refuses
+    a ``no_contact_with`` that names a sphere body."""
     bodies, body_names = body_part.bodies, body_part.names
     collide, motion, after_free = bodies.collide, bodies.motion, bodies.after_free
     sphere_r, watertight, bmat = bodies.sphere_r, bodies.watertight, bodies.material
@@ -86,7 +87,7 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
                                         "only pairs of mesh bodies can be excluded; a "
                                         "sphere body touches every colliding body")
             bodybody_needed = True
-    return ContactNeeds(
+    needs = ContactNeeds(
         bristle_bristle=bb_needed, bristle_body=bbody_needed, body_body=bodybody_needed,
         mesh_mesh=meshmesh_needed,
         friction_bristle=bb_needed and any(mu[a, b] > 0 for a in bristle_mats
@@ -97,6 +98,10 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
                                                    for b in body_mats),
         node_partners=node_partners, bristle_materials=bristle_mats, body_materials=body_mats,
         spheres=spheres)
+    if needs.mesh_mesh and needs.friction_body_body:  # per (contact point, other body)
+        body_part.bodies = bodies._replace(ft_mesh=np.zeros((int(bodies.point_start[-1]), K,
+                                                             3)))
+    return needs
 
 
 def timestep_inputs(bristles, body_part, tables, needs: ContactNeeds) -> dict:
