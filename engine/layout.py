@@ -95,13 +95,16 @@ def quats_z_to(d) -> np.ndarray:
     n = np.sqrt(row_dots(d, d))
     n[n == 0] = 1.0
     b = d / n[:, None]
-    z = np.ascontiguousarray(np.broadcast_to(Z_AXIS, b.shape))
-    dot = row_dots(z, b)
+    bx, by, bz = b[:, 0], b[:, 1], b[:, 2]
     q = np.empty((len(d), 4))
-    q[:, 0] = 1.0 + dot
-    q[:, 1:] = np.cross(z, b)
+    # 1 + z.b and z x b, as np.dot and np.cross compute them for a = +z (the same products
+    # by 0 and 1, so the same signs of zero)
+    q[:, 0] = 1.0 + bz
+    q[:, 1] = 0.0 * bz - by
+    q[:, 2] = bx - 0.0 * bz
+    q[:, 3] = 0.0 * by - 0.0 * bx
     # d along -z: half a turn about y (+z x +x), as quat_from_two_vectors takes it
-    q[dot < -1 + 1e-12] = (0.0, 0.0, 1.0, 0.0)
+    q[bz < -1 + 1e-12] = (0.0, 0.0, 1.0, 0.0)
     q /= np.sqrt(row_dots(q, q))[:, None]
     return q
 

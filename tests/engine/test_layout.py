@@ -27,14 +27,16 @@ def test_stacked_products_equal_one_row_products():
 
 def test_quats_z_to_equals_quat_from_two_vectors():
     d = _rows()
-    d[:5] = [(0, 0, -2.0), (0, 0, 3.0), (1e-9, 0, -1.0), (0, 0, 0), (1, 0, 0)]
+    d[:7] = [(0, 0, -2.0), (0, 0, 3.0), (1e-9, 0, -1.0), (0, 0, 0), (1, 0, 0), (0, -1, 0),
+             (-2, 0, 1)]  # along and against z, none, and zeros of either sign in q
     q = layout.quats_z_to(d)
     z = np.array([0.0, 0.0, 1.0])
     for k in range(len(d)):
         if k == 3:  # a zero row: the identity (quat_from_two_vectors has no direction)
             assert q[k].tolist() == [1.0, 0.0, 0.0, 0.0]
             continue
-        assert np.array_equal(q[k], layout.quat_from_two_vectors(z, d[k])), k
+        one = layout.quat_from_two_vectors(z, d[k])
+        assert np.array_equal(q[k], one) and np.array_equal(np.signbit(q[k]), np.signbit(one)), k
         # and it does what it says: +z turned onto the row's direction
         turned = layout.quat_to_matrix(q[k]) @ z
         unit = d[k] / np.linalg.norm(d[k])
