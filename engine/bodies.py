@@ -10,7 +10,7 @@ Hinge bodies rotate about a world-fixed axis through a fixed point with the exte
 dissipation of seed eq. 4.6, ``d(omega)/dt = -k1 omega - k2 sign(omega)``.
 
 Kinematic bodies follow piecewise-cubic Hermite segments in position and constant angular
-velocity per segment (``q(t) = exp(omega (t - t0)) q0``); see ``build.kinematic_segments``.
+velocity per segment (``q(t) = exp(omega (t - t0)) q0``); see ``build_bodies.kinematic_segments``.
 """
 from __future__ import annotations
 

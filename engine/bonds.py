@@ -2,9 +2,9 @@
 
 Each bond carries the stiffnesses of seed eq. 3.1: normal ``E A / L``, shear ``12 E I / L^3``,
 bending ``E I / L`` and twisting ``G J / L``, and, for a tapered bond, a shear-bending
-coupling ``ksb`` (``build.frustum_bond_stiffness``). They act in a co-rotational frame at the
-bond's midpoint (the node frames' mean rotation), so rotations may be large while strains
-stay small:
+coupling ``ksb`` (``build_bristles.frustum_bond_stiffness``). They act in a co-rotational
+frame at the bond's midpoint (the node frames' mean rotation), so rotations may be large while
+strains stay small:
 
 * axial strain: the chord length ``|x_j - x_i| - L0``;
 * shear displacement: ``(d_x, d_y)`` of ``d = R_m^T (x_j - x_i)``, the bond vector in the

@@ -84,7 +84,7 @@ def shape_triangles(shape, mesh_triangles=None) -> Optional[int]:
 
 
 def _frustum(E, G, r0, r1, length):
-    """The bond stiffnesses of ``engine.build.frustum_bond_stiffness`` (the same formulas;
+    """The bond stiffnesses of ``build_bristles.frustum_bond_stiffness`` (the same formulas;
     a test checks they agree), here so that this module does not import the build."""
     s2 = r0 * r0 + r1 * r1
     p = r0 * r1

@@ -14,7 +14,8 @@ import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
 from .bodies import KINEMATIC, kinematic_state
-from .build import System, kinematic_segments
+from .build import System
+from .build_bodies import kinematic_segments
 from .errors import SceneError
 from .spec import _problems_from
 from .spec_bodies import Profile

@@ -11,7 +11,7 @@ import numpy as np
 from .bodies import FREE, HINGE
 from .build import System
 from .orbit import orbit_energy
-from .rotations import quat_to_matrix
+from .layout import quat_to_matrix
 from .state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
 
 #: per controller: (name, per-frame shape); forces and torques in the body's mesh axes,

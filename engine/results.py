@@ -22,6 +22,7 @@ import h5py
 import numpy as np
 
 from .errors import BrushStudioError
+from .layout import quat_to_matrix
 from .recorder import FORMAT, FORMAT_VERSION
 
 ENERGY_KEYS = ("kinetic", "bond", "contact", "gravity", "dissipated", "external_work", "total")
@@ -466,7 +467,7 @@ class ResultFile:
         stack = lambda key: np.stack([b[key] for b in bodies], axis=1)  # noqa: E731
         motion = np.stack([np.where(b["free"], 3, np.where(b["hinge"], 2, 0))
                            for b in bodies], axis=1)
-        R = np.stack([_rotation_matrices(b["orientation"]) for b in bodies], axis=1)
+        R = np.stack([quat_to_matrix(b["orientation"]) for b in bodies], axis=1)
         L = np.stack([_body_angular_momentum(b) for b in bodies], axis=1)
         return orbit_energy_terms(orbit.n, orbit.gravity_gradient, node_mass, node_x, motion,
                                   np.array([float(b["mass"]) for b in bodies]),
@@ -481,22 +482,12 @@ class ResultFile:
         return np.array([0.0, 0.0, n])
 
 
-def _rotation_matrices(q: np.ndarray) -> np.ndarray:
-    """(F, 4) unit quaternions [w, x, y, z] -> (F, 3, 3) rotation matrices (body -> world)."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], axis=1)
-
-
 def _body_angular_momentum(body: dict) -> np.ndarray:
     """World-frame spin angular momentum R diag(I_p) R^T (w + Omega) of a body, (F, 3): the
     engine integrates this L and derives w from it, so this recovers it to round-off. With
     an orbit the recorded w is relative to the turning Hill frame and L is inertial
     (``Omega = n z_hat``, docs/mission.md); without one Omega = 0."""
-    R = _rotation_matrices(body["orientation"])
+    R = quat_to_matrix(body["orientation"])
     w_inertial = body["angular_velocity"] + body.get("frame_rate", np.zeros(3))
     in_body = np.einsum("fji,fj->fi", R, w_inertial)
     return np.einsum("fij,fj->fi", R, body["principal_inertia"] * in_body)

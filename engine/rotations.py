@@ -1,4 +1,5 @@
-"""Quaternion and small-vector kernels (numba, allocation-free, scalars in and out).
+"""Quaternion and small-vector kernels (numba, allocation-free, scalars in and out); their
+numpy versions for build time and the studio are in :mod:`engine.layout`.
 
 Quaternions are ``[w, x, y, z]`` and rotate local coordinates into world coordinates.
 """
@@ -73,15 +74,6 @@ def cross(ax, ay, az, bx, by, bz):
     return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """3x3 rotation matrix of a unit quaternion [w,x,y,z] (numpy, not for hot loops)."""
-    w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     """Unit quaternion [w,x,y,z] (w >= 0) of a proper rotation matrix (numpy)."""
     if np.array_equal(m, np.eye(3)):  # the common case, without importing scipy.spatial
@@ -90,23 +82,3 @@ def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     x, y, z, w = Rotation.from_matrix(m).as_quat()
     q = np.array([w, x, y, z])
     return q if w >= 0 else -q
-
-
-def quat_mul_np(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array(qmul(*a, *b))
-
-
-def quat_from_two_vectors(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The shortest rotation taking direction a to direction b (numpy)."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    c = np.cross(a, b)
-    d = float(np.dot(a, b))
-    if d < -1 + 1e-12:
-        axis = np.cross(a, [1.0, 0.0, 0.0])
-        if np.linalg.norm(axis) < 1e-6:
-            axis = np.cross(a, [0.0, 1.0, 0.0])
-        axis /= np.linalg.norm(axis)
-        return np.array([0.0, *axis])
-    q = np.array([1.0 + d, *c])
-    return q / np.linalg.norm(q)

@@ -182,8 +182,9 @@ class RunSettings(_Model):
     channels: list[Channel] = Field(default_factory=lambda: list(ALL_CHANNELS))
     stop: Optional[StopCondition] = None
     verlet_skin: Optional[PositiveFloat] = Field(
-        None, description="neighbour-list skin, m; default: the smallest bristle radius "
-                          "(the lists are rebuilt when anything moved half of it)")
+        None, description="neighbour-list skin, m; default (build): the smallest node radius "
+                          "of any bristle, 1 mm in a scene without bristles (the lists are "
+                          "rebuilt when anything may have moved half of it)")
 
     @field_validator("channels")
     @classmethod

@@ -1,6 +1,6 @@
 """The automatic timestep: a Gershgorin bound on the highest angular frequency of the
-linearised system, ``dt = 2 / omega_max`` (2 / omega is leapfrog's stability limit); ``build``
-multiplies it by ``run.dt_safety``.
+linearised system, ``dt = 2 / omega_max`` (2 / omega is leapfrog's stability limit);
+:func:`choose_dt` multiplies it by ``run.dt_safety`` and applies the other limits.
 
 For every node the bound adds, over its bonds, the absolute entries of its rows of the
 mass-normalised Euler-Bernoulli element stiffness matrix (axial ``EA/L``, shear ``12EI/L^3``,
@@ -25,9 +25,9 @@ rotation row and ``k_t r / sqrt(m I)`` coupling terms to both rows.
 Bodies add their contacts with up to ``BODY_CONTACTS`` bristle segments, and sphere bodies
 their body-body contact. Gershgorin's bound is an upper bound of the true highest frequency
 of the linearised system, so the rule is conservative. The element that gives the largest
-bound is reported as ``dt_limited_by``. ``build`` then also caps dt so that no colliding body's
-surface moves more than half the step loop's tunnelling limit (a quarter of the smallest
-bristle radius) per step.
+bound is reported as ``dt_limited_by``. :func:`choose_dt` then also caps dt so that no
+colliding body's surface moves more than half the step loop's tunnelling limit (a quarter of
+the smallest bristle radius) per step.
 """
 from __future__ import annotations
 
@@ -135,3 +135,54 @@ def automatic_dt(system_info: dict) -> tuple[float, str, float]:
     w2, label = max(candidates)
     omega = math.sqrt(w2)
     return 2.0 / omega, label, omega
+
+
+MAX_BODY_STEP_RATIO = 0.25   # body surface displacement per step / smallest bristle radius
+
+
+def choose_dt(system_info: dict, run, r_min: float, body_speed=None,
+              warnings: list = None) -> tuple[float, float, str]:
+    """The run's timestep: ``(dt, dt_stable, limited_by)``.
+
+    ``dt_stable`` is :func:`automatic_dt`'s stability limit. Without ``run.dt`` the step is
+    ``run.dt_safety`` of it (``record_interval`` when nothing moves elastically), and
+    ``limited_by`` names the element that sets it; a ``run.dt`` given in the scene is kept,
+    with a warning when it exceeds the limit. ``body_speed`` ``(speed, body name)``, given
+    when bodies can touch bristles or each other, is the fastest colliding body's surface
+    speed: the automatic dt keeps its surface within half of ``MAX_BODY_STEP_RATIO`` x the
+    smallest bristle radius ``r_min`` per step (the step loop's tunnelling check stops at the
+    whole of it), and a given dt that breaks the check is warned about. dt is at most the
+    record interval and the duration."""
+    warnings = [] if warnings is None else warnings
+    dt_stable, limited_by, _ = automatic_dt(system_info)
+    if run.dt is None:
+        dt = run.dt_safety * dt_stable
+        if not math.isfinite(dt):
+            dt = run.record_interval
+            limited_by = "nothing moves elastically: dt = record_interval"
+    else:
+        dt = run.dt
+        if dt > dt_stable:
+            warnings.append(f"run.dt = {dt:.3g} s exceeds the estimated stability limit "
+                            f"{dt_stable:.3g} s (set by {limited_by}); the run may "
+                            f"become unstable")
+        limited_by = "given in the scene (run.dt)"
+    # tunnelling: a body's surface must not move more than a fraction of the smallest
+    # bristle radius per step (the step loop's check); the automatic dt keeps half of that
+    if body_speed is not None:
+        speed, fastest = body_speed
+        step_max = MAX_BODY_STEP_RATIO * r_min
+        if speed > 0:
+            dt_speed = 0.5 * step_max / speed
+            if run.dt is None and dt_speed < dt:
+                dt = dt_speed
+                limited_by = (f"speed of body {fastest!r} (up to {speed:.3g} m/s; "
+                              f"half of {MAX_BODY_STEP_RATIO:g} x the smallest bristle radius "
+                              f"per step, against tunnelling)")
+            elif run.dt is not None and run.dt > 2 * dt_speed:
+                warnings.append(f"run.dt = {run.dt:.3g} s lets body "
+                                f"{fastest!r} ({speed:.3g} m/s) move more than "
+                                f"{MAX_BODY_STEP_RATIO:g} x the smallest bristle radius per "
+                                f"step: the run will stop on the tunnelling check")
+    dt = min(dt, run.record_interval, run.duration)
+    return float(dt), float(dt_stable), limited_by

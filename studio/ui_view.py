@@ -15,55 +15,17 @@ own radius (x, y) and length (z): one ``add_batched_meshes_simple`` node for all
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+
+from engine import layout
 
 VIEW_SCALE = 1000.0  # view units (mm) per metre
 CYLINDER_SECTIONS = 10
 BRISTLE_COLOR = (70, 150, 230)
 BODY_COLOR = (230, 140, 60)
-
-
-# --------------------------------------------------------------------------- rotations
-def quat_to_matrix(q) -> np.ndarray:
-    """[w, x, y, z] (any norm) -> 3x3 rotation matrix."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
-
-
-def quat_mul(a, b) -> np.ndarray:
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
-def quats_z_to(d: np.ndarray) -> np.ndarray:
-    """(M, 4) unit quaternions [w, x, y, z] rotating +z onto each row of ``d`` (M, 3)
-    (any length > 0): the half-way quaternion [1 + cos, z x d]."""
-    n = np.sqrt(np.einsum("ij,ij->i", d, d))
-    n[n == 0] = 1.0
-    q = np.zeros((len(d), 4))
-    q[:, 0] = 1.0 + d[:, 2] / n
-    q[:, 1] = -d[:, 1] / n
-    q[:, 2] = d[:, 0] / n
-    qn = np.sqrt(np.einsum("ij,ij->i", q, q))
-    flip = qn < 1e-9  # d along -z: half a turn about x
-    if flip.any():
-        q[flip] = (0.0, 1.0, 0.0, 0.0)
-        qn[flip] = 1.0
-    q /= qn[:, None]
-    return q
 
 
 # --------------------------------------------------------------------------- geometry
@@ -87,54 +49,49 @@ def _pose(pose: Optional[dict]) -> tuple[np.ndarray, np.ndarray]:
             np.asarray(pose.get("orientation", (1.0, 0.0, 0.0, 0.0)), float))
 
 
+def _brush_field(brush: dict, name: str):
+    """A brush field of a scene dict, or the scene model's default (engine.spec.Brush)."""
+    from engine.spec import Brush
+
+    value = brush.get(name)
+    return Brush.model_fields[name].default if value is None else value
+
+
+def _n_bristles(brush: dict) -> int:
+    return int(_brush_field(brush, "rows")) * int(_brush_field(brush, "columns"))
+
+
+def design_layout(scene: dict, brush: dict) -> layout.BristleLayout:
+    """The rest layout (``engine.layout.brush_layout``, the one ``engine.build`` uses) of one
+    brush of a (validated) scene dict."""
+    f = lambda name: _brush_field(brush, name)  # noqa: E731
+    mount_position = mount_orientation = None
+    if brush.get("mount"):
+        body = next(b for b in scene.get("bodies") or [] if b["name"] == brush["mount"])
+        mount_position, mount_orientation = _pose(body.get("pose"))
+    base_position, base_orientation = _pose(brush.get("base"))
+    return layout.brush_layout(
+        rows=int(f("rows")), columns=int(f("columns")), pitch=tuple(f("pitch")),
+        pattern=f("pattern"), bristle_length=float(brush["bristle_length"]),
+        root_radius=float(brush["root_radius"]), tip_radius=float(brush["tip_radius"]),
+        n_nodes=int(f("n_nodes")), tip_variance=float(f("tip_variance")), seed=int(f("seed")),
+        base_position=base_position, base_orientation=base_orientation,
+        mount_position=mount_position, mount_orientation=mount_orientation)
+
+
 def design_bristles(scene: dict) -> Bristles:
     """The rest geometry of every brush of a (validated) scene dict, as docs/scene.md
-    describes it: grid centred on the base, odd rows shifted half a pitch when staggered,
-    each tip perturbed in the base's x-y plane by a Gaussian of variance ``tip_variance``
-    drawn from ``numpy.random.default_rng(seed)`` (two draws per bristle, row by row), nodes
-    evenly spaced on the straight line from root to tip."""
+    describes it and ``engine.build`` places it (``engine.layout``)."""
     pos_all, rad_all, bonds_all = [], [], []
     n_node = 0
     n_bristles = 0
-    bodies = {b["name"]: b for b in scene.get("bodies") or []}
     for br in scene.get("brushes") or []:
-        rows, cols = int(br.get("rows", 1)), int(br.get("columns", 1))
-        pitch = br.get("pitch", (0.003, 0.003))
-        n = int(br.get("n_nodes", 8))
-        length = float(br["bristle_length"])
-        pb, qb = _pose(br.get("base"))
-        if br.get("mount"):
-            ps, qs = _pose(bodies[br["mount"]].get("pose"))
-            pb = ps + quat_to_matrix(qs) @ pb
-            qb = quat_mul(qs, qb)
-        Rb = quat_to_matrix(qb)
-        col = np.arange(cols, dtype=float)
-        row = np.arange(rows, dtype=float)
-        x = (col[None, :] - 0.5 * (cols - 1)) * pitch[0] + np.zeros((rows, 1))
-        if br.get("pattern", "grid") == "staggered":
-            x[1::2] += 0.5 * pitch[0]
-        y = ((row - 0.5 * (rows - 1)) * pitch[1])[:, None] + np.zeros((1, cols))
-        roots = np.stack([x.ravel(), y.ravel(), np.zeros(rows * cols)], axis=1)
-        tips = roots + (0.0, 0.0, length)
-        var = float(br.get("tip_variance", 0.0))
-        if var > 0:
-            rng = np.random.default_rng(int(br.get("seed", 0)))
-            tips[:, :2] += rng.normal(0.0, math.sqrt(var), (rows * cols, 2))
-        d = tips - roots
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        frac = np.arange(n) * (length / (n - 1))
-        local = roots[:, None, :] + d[:, None, :] * frac[None, :, None]  # (nb, n, 3)
-        world = local.reshape(-1, 3) @ Rb.T + pb
-        r_node = float(br["root_radius"]) + (float(br["tip_radius"]) -
-                                             float(br["root_radius"])) * np.linspace(0, 1, n)
-        nb = rows * cols
-        starts = n_node + np.arange(nb) * n
-        i = (starts[:, None] + np.arange(n - 1)[None, :]).ravel()
-        pos_all.append(world)
-        rad_all.append(np.tile(r_node, nb))
-        bonds_all.append(np.stack([i, i + 1], axis=1))
-        n_node += nb * n
-        n_bristles += nb
+        lay = design_layout(scene, br)
+        pos_all.append(lay.positions)
+        rad_all.append(lay.node_radius)
+        bonds_all.append(lay.bonds(n_node))
+        n_node += len(lay.positions)
+        n_bristles += lay.n_bristles
     if not pos_all:
         return Bristles(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 2), np.int64), 0)
     return Bristles(np.concatenate(pos_all), np.concatenate(rad_all),
@@ -143,7 +100,7 @@ def design_bristles(scene: dict) -> Bristles:
 
 def n_design_segments(scene: dict) -> int:
     """How many segments a scene's brushes have (without building them)."""
-    return sum(int(b.get("rows", 1)) * int(b.get("columns", 1)) * (int(b.get("n_nodes", 8)) - 1)
+    return sum(_n_bristles(b) * (int(_brush_field(b, "n_nodes")) - 1)
                for b in scene.get("brushes") or [])
 
 
@@ -159,7 +116,7 @@ def segment_instances(positions: np.ndarray, radius: np.ndarray, bonds: np.ndarr
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     r = 0.5 * (radius[i] + radius[j])
     centres = (a + b) * (0.5 * VIEW_SCALE)
-    wxyz = quats_z_to(d)
+    wxyz = layout.quats_z_to(d)
     scales = np.empty((len(bonds), 3))
     scales[:, 0] = r * VIEW_SCALE
     scales[:, 1] = r * VIEW_SCALE
@@ -195,36 +152,13 @@ def unit_cylinder(sections: int = CYLINDER_SECTIONS) -> tuple[np.ndarray, np.nda
 
 
 def shape_mesh(shape: dict):
-    """A body shape (scene dict, SI) as a trimesh in the shape's own frame, as docs/scene.md
-    "Shapes" defines it."""
-    import trimesh
+    """A body shape (scene dict, SI) as a trimesh in the shape's own frame: the mesh
+    ``engine.build`` makes of it (``engine.meshes.shape_mesh``)."""
+    from pydantic import TypeAdapter
 
-    t = shape["type"]
-    if t == "box":
-        return trimesh.creation.box(extents=shape["size"])
-    if t == "sphere":
-        return trimesh.creation.icosphere(subdivisions=int(shape.get("subdivisions", 3)),
-                                          radius=float(shape["radius"]))
-    if t == "cylinder":
-        return trimesh.creation.cylinder(radius=float(shape["radius"]),
-                                         height=float(shape["height"]),
-                                         sections=int(shape.get("sections", 32)))
-    if t == "wedge":
-        h, half = float(shape["height"]), 0.5 * float(shape["length"])
-        w = h * math.tan(0.5 * float(shape["angle"]))
-        section = [(0.0, 0.0), (-w, h), (w, h)]
-        vertices = np.array([[x, y, z] for x in (-half, half) for y, z in section])
-        faces = np.array([[0, 1, 2], [3, 5, 4], [0, 3, 4], [0, 4, 1], [0, 2, 5], [0, 5, 3],
-                          [1, 4, 5], [1, 5, 2]])
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        if mesh.volume < 0:
-            mesh.invert()
-        return mesh
-    if t == "mesh":
-        loaded = trimesh.load(Path(shape["file"]), force="mesh")
-        loaded.apply_scale(float(shape.get("scale", 1.0)))
-        return loaded
-    raise ValueError(f"unknown shape type {t!r}")
+    from engine import meshes, spec
+
+    return meshes.shape_mesh(TypeAdapter(spec.Shape).validate_python(shape))
 
 
 @dataclass
@@ -370,8 +304,8 @@ def design_overlaps(scene: dict, bristles: Optional[Bristles] = None,
     first = 0
     brush_names = []
     for i, br in enumerate(scene.get("brushes") or []):
-        nb = int(br.get("rows", 1)) * int(br.get("columns", 1))
-        n = int(br.get("n_nodes", 8))
+        nb = _n_bristles(br)
+        n = int(_brush_field(br, "n_nodes"))
         brush_names.append(br.get("name", f"brush{i}"))
         mount = br.get("mount")
         names += [f"bristle {j}" for j in range(nb)]
@@ -383,7 +317,7 @@ def design_overlaps(scene: dict, bristles: Optional[Bristles] = None,
     closed = {}
     for b in scene.get("bodies") or []:
         closed[b["name"]] = b["shape"].get("type") != "mesh"
-    shapes = [overlap.BodyShape(b.name, b.vertices @ quat_to_matrix(b.wxyz).T + b.position,
+    shapes = [overlap.BodyShape(b.name, b.vertices @ layout.quat_to_matrix(b.wxyz).T + b.position,
                                 b.faces, closed.get(b.name, True) or _closed(b.faces),
                                 bool(next((s.get("collide", True) for s in
                                            scene.get("bodies") or [] if s["name"] == b.name),
@@ -419,7 +353,7 @@ def overlap_segment_colors(bristles: Bristles, overlaps: Sequence, n_nodes_of) -
 def design_bristle_first(scene: dict) -> np.ndarray:
     """Per bristle of a design, the index of its first node in ``design_bristles`` (and the
     node count at the end)."""
-    counts = [np.full(int(b.get("rows", 1)) * int(b.get("columns", 1)), int(b.get("n_nodes", 8)))
+    counts = [np.full(_n_bristles(b), int(_brush_field(b, "n_nodes")))
               for b in scene.get("brushes") or []]
     counts = np.concatenate(counts) if counts else np.zeros(0, np.int64)
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)

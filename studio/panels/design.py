@@ -10,6 +10,8 @@ from typing import Any, Optional
 
 import numpy as np
 
+from engine import layout
+
 from .. import ui_brushes as ub
 from .. import ui_guides as ug
 from .. import ui_scene as us
@@ -137,7 +139,7 @@ class DesignPanel(BrushSelector, DesignFiles):
         pts = [bristles.positions] if bristles is not None and len(bristles.positions) else []
         for b in bodies:
             if len(b.vertices):
-                pts.append(b.vertices @ uv.quat_to_matrix(b.wxyz).T + b.position)
+                pts.append(b.vertices @ layout.quat_to_matrix(b.wxyz).T + b.position)
         if pts:
             allp = np.concatenate(pts) * uv.VIEW_SCALE
             lo, hi = allp.min(0), allp.max(0)

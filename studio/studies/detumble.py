@@ -50,7 +50,7 @@ DEG = math.pi / 180.0
 def _target_extent(target: dict, axis: np.ndarray) -> float:
     """The target's largest extent from its centre of mass along ``axis`` (world), m."""
     from engine.meshes import body_geometry
-    from engine.rotations import quat_to_matrix
+    from engine.layout import quat_to_matrix
     from engine.spec import Body
 
     body = Body.model_validate(target)
@@ -115,7 +115,7 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         if stop and stop.get("body") == TARGET:  # the preset's stop is relative to its spin
             stop["value"] *= spin_deg * DEG / float(np.linalg.norm(w_preset))
     # a longer bristle reaches farther along the approach axis by its projection on it
-    from engine.rotations import quat_to_matrix
+    from engine.layout import quat_to_matrix
     along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
         @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
     cos_tilt = abs(float(along @ axis))

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.layout import quat_to_matrix
+
 # --------------------------------------------------------------------------- materials
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1100.0}  # seed 4.2
 PLA = {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36, "density": 1240.0}
@@ -505,10 +507,7 @@ class CaseRunner:
 
 # --------------------------------------------------------------------------- judging
 def _rot(q) -> np.ndarray:
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return quat_to_matrix(np.asarray(q, float) / np.linalg.norm(q))
 
 
 def judge(outcome: Outcome) -> list[str]:

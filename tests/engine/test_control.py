@@ -34,7 +34,7 @@ def _mesh_rotvec(system):
     from engine import control as C
     q = system.bodies.q[0]
     qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
-    from engine.rotations import quat_mul_np
+    from engine.layout import quat_mul as quat_mul_np
     qm = quat_mul_np(q, qbm)
     if qm[0] < 0:
         qm = -qm

@@ -33,8 +33,8 @@ def test_estimated_dt_is_the_builds_where_bristles_set_it(path):
 
 
 def test_the_frustum_stiffnesses_are_the_builds():
-    # catches the copy drifting from engine.build's element (a tapered or a uniform bond)
-    from engine.build import frustum_bond_stiffness
+    # catches the copy drifting from the build's element (a tapered or a uniform bond)
+    from engine.build_bristles import frustum_bond_stiffness
 
     for r0, r1 in ((2e-4, 2e-4), (3e-4, 1e-4)):
         assert _frustum(2e9, 7e8, r0, r1, 1e-3) == pytest.approx(

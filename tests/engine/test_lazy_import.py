@@ -43,3 +43,23 @@ def test_public_names_resolve_to_the_functions(tiny_scene):
     system = engine.build(engine.parse_scene(tiny_scene()))
     assert isinstance(system, engine.System)
     assert engine.state.OK == 0  # a submodule reached as an attribute, as before
+
+
+_DESIGN_CODE = """
+import json, sys
+from studio import ui_view as uv
+scene = json.load(open(sys.argv[1]))
+assert len(uv.design_bristles(scene).positions) and len(uv.design_bodies(scene))
+print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))
+"""
+
+
+def test_design_view_imports_no_kernels():
+    # the studio draws a design with engine.layout and engine.meshes (numpy, trimesh): a
+    # kernel module imported on the way (say engine.rotations for a quaternion) would make
+    # the first design view wait for numba
+    scene = ROOT / "static_presets" / "gripper.json"
+    p = subprocess.run([sys.executable, "-c", _DESIGN_CODE, str(scene), "numba",
+                        "engine.stepper", "engine.build", "engine.rotations"], cwd=ROOT,
+                       capture_output=True, text=True, check=True)
+    assert json.loads(p.stdout) == []

@@ -1,5 +1,5 @@
 """The automatic timestep counts only the contacts a node can actually have
-(engine/timestep.py, the dt section of engine/build.py)."""
+(engine/timestep.py and the reach analysis of engine/build_contacts.py)."""
 from __future__ import annotations
 
 import copy
@@ -162,7 +162,7 @@ def test_root_neighbours_agree_between_brute_force_and_kd_tree(monkeypatch):
     """Catches an off-by-radius or index mix-up in the all-pairs path that small brushes
     take: both paths must list the same roots for every point (scipy's k-d tree is the
     reference)."""
-    build_mod = importlib.import_module("engine.build")
+    build_mod = importlib.import_module("engine.build_contacts")
 
     rng = np.random.default_rng(3)
     roots = rng.uniform(-1.0, 1.0, (300, 3))

@@ -8,6 +8,7 @@ import socket
 import numpy as np
 import pytest
 
+from engine.layout import quat_to_matrix
 from studio import ui_view as uv
 
 
@@ -73,7 +74,7 @@ def test_view_segment_instances_match_the_segments():
     assert scales[:, 2] == pytest.approx(1000.0 * np.linalg.norm(d, axis=1))
     assert scales[:, 0] == pytest.approx(1000.0 * 0.5 * (radius[:-1] + radius[1:]))
     for q, di in zip(wxyz, d):  # the unit cylinder's axis (+z) turned onto the segment
-        axis = uv.quat_to_matrix(q) @ np.array([0.0, 0.0, 1.0])
+        axis = quat_to_matrix(q) @ np.array([0.0, 0.0, 1.0])
         assert axis == pytest.approx(di / np.linalg.norm(di), abs=1e-12)
 
 

@@ -10,6 +10,7 @@ from typing import Optional
 
 import numpy as np
 
+from engine.layout import quat_to_matrix
 from engine.spectrum import peak_frequencies, uniform_part
 
 CSV_COLUMNS = ("level", "n_nodes", "dt", "quantity", "error", "wall_s")
@@ -126,15 +127,6 @@ def parse_quantity(text: str) -> Quantity:
     raise ConvergenceError(f"unknown quantity {text!r}; allowed: tip_deflection[:B], "
                            "spectral_peak[:K[:B]], wedge_force@DEPTH[:BODY], "
                            "body_omega_after_first_contact[:BODY], peak_plate_force[:BODY]")
-
-
-def _quat_matrix(q) -> np.ndarray:
-    w, x, y, z = (float(c) for c in q)
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def _bristle_tip(res, index: int) -> tuple[np.ndarray, np.ndarray]:
@@ -356,7 +348,8 @@ def _peak_plate_force(res, q: Quantity) -> float:
         # a fixed plate's world box, to find world-fixed brushes rooted on it
         verts = np.asarray(res.static(f"bodies/{name}/vertices"))
         pos = np.asarray(res.frame(f"bodies/{name}/position", 0))
-        rot = _quat_matrix(res.frame(f"bodies/{name}/orientation", 0))
+        q = res.frame(f"bodies/{name}/orientation", 0)
+        rot = quat_to_matrix(q / np.linalg.norm(q))
         world = verts @ rot.T + pos
         lo, hi = world.min(axis=0) - ROOTED_WITHIN, world.max(axis=0) + ROOTED_WITHIN
     for brush in scene.brushes:
