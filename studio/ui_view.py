@@ -156,9 +156,9 @@ def shape_mesh(shape: dict):
     ``engine.build`` makes of it (``engine.meshes.shape_mesh``)."""
     from pydantic import TypeAdapter
 
-    from engine import meshes, spec
+    from engine import meshes, spec_bodies
 
-    return meshes.shape_mesh(TypeAdapter(spec.Shape).validate_python(shape))
+    return meshes.shape_mesh(TypeAdapter(spec_bodies.Shape).validate_python(shape))
 
 
 @dataclass

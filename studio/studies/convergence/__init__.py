@@ -30,7 +30,7 @@ from .quantities import (  # noqa: F401
     CONTACT_GAP_S, CSV_COLUMNS, ConvergenceError, FORMAT, GRAZE_CHANGE, KINDS,
     QUANTITY_HELP, Quantity, ROOTED_WITHIN, TOLERANCES, _body_channel, _bristle_tip,
     _free_after, _omega_after_first_contact, _parse_int, _parse_length, _peak_plate_force,
-    _quat_matrix, _spinning_body, _stepped_body, _transverse, _wedge_force, check_measurable,
+    _spinning_body, _stepped_body, _transverse, _wedge_force, check_measurable,
     contact_episodes, first_contact_end, measure, parse_quantity, spectral_peaks)
 from .references import (  # noqa: F401
     Reference, _amplitude, analytic_reference, tapered_elastica_tip)

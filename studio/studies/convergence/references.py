@@ -9,8 +9,9 @@ from typing import Optional
 import numpy as np
 
 from engine.beam_theory import circle_second_moment, rod_frequency
+from engine.layout import quat_to_matrix
 
-from .quantities import Quantity, _quat_matrix
+from .quantities import Quantity
 
 
 def tapered_elastica_tip(length: float, youngs_modulus: float, root_radius: float,
@@ -112,7 +113,8 @@ def analytic_reference(scene, quantity: Quantity) -> Optional[Reference]:
         f = rod_frequency(quantity.peak, L, E, brush.root_radius, rho)
         return Reference(f, "analytic", f"Euler-Bernoulli cantilever mode {quantity.peak}: "
                          f"(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4)) = {f:.6g} Hz")
-    axis = _quat_matrix(brush.base.orientation) @ np.array([0.0, 0.0, 1.0])
+    q = np.asarray(brush.base.orientation, float)
+    axis = quat_to_matrix(q / np.linalg.norm(q)) @ np.array([0.0, 0.0, 1.0])
     total = np.zeros(3)
     for load in scene.loads:
         if load.node not in (-1, brush.n_nodes - 1) or load.profile.frequency > 0:
