@@ -9,9 +9,9 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import detumble, refinement, rod, sensitivity, spin, wedge
+from . import detumble, refinement, rod, sensitivity, spin, wedge_study
 
-STUDY_MODULES = (wedge, refinement, sensitivity, rod, spin, detumble)
+STUDY_MODULES = (wedge_study, refinement, sensitivity, rod, spin, detumble)
 
 
 def register(subparsers) -> None:

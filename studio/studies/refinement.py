@@ -28,9 +28,10 @@ from .api import StudyResult
 from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
                      run_many_from_args, write_json_atomic, write_outcomes)
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
-from .wedge import (TASK,
-                    StudyInputError, add_protocol_options, apply_resolution,
-                    ProtocolOptions, protocol_from_options, resolve_scenes, validate_scenes, wedge_angle_deg)
+from .wedge import TASK
+from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
+from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
+                           wedge_angle_deg)
 
 DEFAULT_LEVELS = "4,6,8,12,17,24,32"
 DEFAULT_DEPTH_MM = 5.0

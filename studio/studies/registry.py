@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
-from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge
+from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge_study
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ def _montecarlo_parser(sub) -> None:
 
 #: study name -> Study (``convergence`` is a top-level command, the others ``study NAME``)
 REGISTRY: dict[str, Study] = {
-    "wedge": Study("wedge", wedge.Options, wedge.run, wedge.add_parser),
+    "wedge": Study("wedge", wedge_study.Options, wedge_study.run, wedge_study.add_parser),
     "spin": Study("spin", spin.Options, spin.run, spin.add_parser),
     "refinement": Study("refinement", refinement.Options, refinement.run,
                         refinement.add_parser),

@@ -39,7 +39,7 @@ def test_a_dict_of_options_becomes_typed_options():
 
 
 def test_a_set_cancel_stops_a_study_before_its_first_run(tmp_path):
-    from studio.studies import wedge
+    from studio.studies import wedge_study as wedge
 
     cancel = threading.Event()
     cancel.set()
