@@ -198,7 +198,7 @@ def build_specs(options: "Options", grid: dict):
 
 def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
     """detumble_summary.json / .csv and omega.png from the finished runs."""
-    from .runner import write_json_atomic
+    from .run_files import write_json_atomic
 
     out_dir = Path(out_dir)
     ok = [o for o in outcomes if o.ok]
@@ -251,7 +251,7 @@ class Options(ExecutionOptions):
 
 
 def add_parser(study_subparsers) -> None:
-    from .runner import add_common_options
+    from .study_command import add_common_options
 
     p = study_subparsers.add_parser(
         "detumble", help="a chaser's brush detumbles a spinning target in orbit (issue 15)",
@@ -327,7 +327,8 @@ def _grid(options: Options) -> dict:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .runner import check_common_options, failures_text, first_problem, run_study
+    from .run_files import failures_text
+    from .study_command import check_common_options, first_problem, run_study
 
     problem = check_common_options(options)
     grid = None

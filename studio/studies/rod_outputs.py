@@ -21,7 +21,7 @@ def write_outputs(out_dir: Path, outcomes, analytic: Sequence[float]) -> dict:
     """peaks.json, CSVs, rod.h5 and PNGs from the finished runs; returns peaks.json's dict."""
     import h5py
 
-    from .runner import write_json_atomic
+    from .run_files import write_json_atomic
 
     out_dir = Path(out_dir)
     exc = [o for o in outcomes if o.params.get("case") in CASES and o.ok]

@@ -80,7 +80,7 @@ class Options(ExecutionOptions):
 
 def add_parser(study_subparsers) -> None:
     from .preset_option import add_preset_option
-    from .runner import add_common_options
+    from .study_command import add_common_options
 
     p = study_subparsers.add_parser(
         "rod", help="bristle dynamics (seed 4.1): tip spectra and the friction-damped "
@@ -131,7 +131,8 @@ def _cmd_rod(args) -> int:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .runner import check_common_options, failures_text, first_problem, run_study
+    from .run_files import failures_text
+    from .study_command import check_common_options, first_problem, run_study
 
     from .preset_option import PresetChoiceError, chosen
 

@@ -35,8 +35,9 @@ from typing import Optional
 from . import api
 from .api import StudyResult
 
-from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
-                     run_many_from_args, write_json_atomic, write_outcomes)
+from .run_files import failures_text, write_json_atomic, write_outcomes
+from .runner import RunSpec
+from .study_command import add_common_options, check_common_options, run_many_from_args
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .wedge import TASK
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options

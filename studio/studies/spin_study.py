@@ -80,7 +80,7 @@ class Options(ExecutionOptions):
 
 def add_parser(study_subparsers) -> None:
     from .preset_option import add_preset_option
-    from .runner import add_common_options
+    from .study_command import add_common_options
 
     p = study_subparsers.add_parser(
         "spin", help="brush dynamic test (seed 4.3): spinning cubes against the brush",
@@ -128,7 +128,8 @@ def _cmd_spin(args) -> int:
 
 def _run_study(options: Options, out: Path) -> int:
     from .preset_option import chosen
-    from .runner import check_common_options, failures_text, first_problem, run_study
+    from .run_files import failures_text
+    from .study_command import check_common_options, first_problem, run_study
 
     problem = check_common_options(options)
     try:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from studio.cli import main
-from studio.studies.runner import load_outcome, run_paths
+from studio.studies.run_files import load_outcome, run_paths
 from studio.studies.wedge import curve_checks, read_run_h5
 from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
 
