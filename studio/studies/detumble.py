@@ -24,19 +24,18 @@ Outputs (``-o DIR``): ``detumble_summary.json`` (every run's numbers and paramet
 """
 from __future__ import annotations
 
-import copy
 import csv
 import json
 import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 
 from . import api
-from .api import ExecutionOptions, StudyResult
+from .api import ExecutionOptions
 from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
 
 PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
@@ -251,7 +250,7 @@ class Options(ExecutionOptions):
 
 
 def add_parser(study_subparsers) -> None:
-    from .study_command import add_common_options
+    from .study_command import set_command
 
     p = study_subparsers.add_parser(
         "detumble", help="a chaser's brush detumbles a spinning target in orbit (issue 15)",
@@ -285,18 +284,7 @@ def add_parser(study_subparsers) -> None:
                    help="simulated time per run at most (default: the preset's; a run "
                         "stops earlier once the target is detumbled)")
     p.add_argument("--record-interval", type=float, default=None, metavar="S")
-    add_common_options(p, default_output="study-detumble")
-    p.set_defaults(func=_cmd_detumble)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The detumble study of ``options`` into ``out_dir``."""
-    return api.run_body("detumble", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_detumble(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, default_output="study-detumble")
 
 
 def _grid(options: Options) -> dict:
@@ -371,3 +359,6 @@ def _run_study(options: Options, out: Path) -> int:
         print("failed runs:\n" + failed, file=sys.stderr)
         return 1
     return 0
+
+
+run = api.study_run("detumble", _run_study)

@@ -23,11 +23,9 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .api import StudyResult
-
 from .run_files import failures_text, write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import add_common_options, check_common_options, run_many_from_args
+from .study_command import check_common_options, run_many_from_args, set_command
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .wedge import TASK
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
@@ -87,18 +85,7 @@ def add_parser(sub) -> None:
     p.add_argument("--levels", default=DEFAULT_LEVELS, metavar="N,...",
                    help=f"nodes per bristle (default {DEFAULT_LEVELS})")
     add_protocol_options(p)
-    add_common_options(p)
-    p.set_defaults(func=cmd_refinement, angles=None)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The refinement study of ``options`` into ``out_dir``."""
-    return api.run_body("refinement", _run_study, options, out_dir, progress, cancel)
-
-
-def cmd_refinement(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, angles=None)
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -153,6 +140,9 @@ def _run_study(options: Options, out: Path) -> int:
         print("failed runs:\n" + fails, file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+run = api.study_run("refinement", _run_study)
 
 
 def refinement_table(levels, outcomes, ceiling) -> list[dict]:

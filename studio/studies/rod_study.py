@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from . import api
-from .api import ExecutionOptions, StudyResult
+from .api import ExecutionOptions
 from .rod import (CASES, DEFAULT_FRICTION_ANGLE_DEG, DEFAULT_RESPONSE_FORCE,
                   DEFAULT_RESPONSE_FREQUENCIES, PRESETS, cantilever_frequencies, case_scene,
                   response_scene)
@@ -80,7 +80,7 @@ class Options(ExecutionOptions):
 
 def add_parser(study_subparsers) -> None:
     from .preset_option import add_preset_option
-    from .study_command import add_common_options
+    from .study_command import set_command
 
     p = study_subparsers.add_parser(
         "rod", help="bristle dynamics (seed 4.1): tip spectra and the friction-damped "
@@ -116,18 +116,7 @@ def add_parser(study_subparsers) -> None:
                    help="drive periods measured (default 6; at least --min-time)")
     p.add_argument("--min-time", type=float, default=0.5, metavar="S",
                    help="least settling and measuring time, s (default 0.5)")
-    add_common_options(p, default_output="study-rod")
-    p.set_defaults(func=_cmd_rod)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The rod study of ``options`` into ``out_dir``."""
-    return api.run_body("rod", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_rod(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, default_output="study-rod")
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -202,3 +191,6 @@ def _run_study(options: Options, out: Path) -> int:
         print("failed runs:\n" + failed, file=sys.stderr)
         return 1
     return 0
+
+
+run = api.study_run("rod", _run_study)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from . import api
-from .api import ExecutionOptions, StudyResult
+from .api import ExecutionOptions
 from .spin import CONFIGS, CUBES_MM, SEED_TIP_VARIANCE, config_label, spin_scene
 from .spin_outputs import write_outputs
 
@@ -80,7 +80,7 @@ class Options(ExecutionOptions):
 
 def add_parser(study_subparsers) -> None:
     from .preset_option import add_preset_option
-    from .study_command import add_common_options
+    from .study_command import set_command
 
     p = study_subparsers.add_parser(
         "spin", help="brush dynamic test (seed 4.3): spinning cubes against the brush",
@@ -112,18 +112,7 @@ def add_parser(study_subparsers) -> None:
     p.add_argument("--tip-variance", type=float, default=SEED_TIP_VARIANCE, metavar="M2",
                    help=f"variance of the random tips (default {SEED_TIP_VARIANCE:g} m^2)")
     p.add_argument("--record-interval", type=float, default=None, metavar="S")
-    add_common_options(p, default_output="study-spin")
-    p.set_defaults(func=_cmd_spin)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The spin study of ``options`` into ``out_dir``."""
-    return api.run_body("spin", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_spin(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, default_output="study-spin")
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -179,3 +168,6 @@ def _run_study(options: Options, out: Path) -> int:
         print("failed runs:\n" + failed, file=sys.stderr)
         return 1
     return 0
+
+
+run = api.study_run("spin", _run_study)

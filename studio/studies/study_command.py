@@ -34,6 +34,20 @@ def add_common_options(parser: argparse.ArgumentParser, default_output: Optional
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def set_command(parser: argparse.ArgumentParser, run: Callable, options: type, *,
+                default_output: Optional[str] = None, **defaults) -> None:
+    """Finish a study's parser: the common options (:func:`add_common_options`) and, as its
+    ``func``, the command: the parsed arguments as ``options`` (``options.from_args``), run
+    by ``run`` into ``--output``; it returns the exit code. ``defaults``: more
+    ``set_defaults`` values."""
+    add_common_options(parser, default_output)
+
+    def command(args) -> int:
+        return run(options.from_args(args), args.output).exit_code
+
+    parser.set_defaults(func=command, **defaults)
+
+
 def check_common_options(args) -> Optional[str]:
     """A message for a bad common option, or None."""
     if args.workers is not None and args.workers < 1:

@@ -19,10 +19,9 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .api import StudyResult
 from .run_files import failures_text, write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import add_common_options, check_common_options, run_many_from_args
+from .study_command import check_common_options, run_many_from_args, set_command
 from .wedge import INCREMENT_TOLERANCE, TASK, curve_checks, increment_check
 from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options,
                              protocol_from_options, step_duration)
@@ -68,18 +67,7 @@ def add_parser(sub) -> None:
                         f"(study.json increment_check; converged within "
                         f"{INCREMENT_TOLERANCE * 100:g} %%?); about 1.8x the CPU")
     add_protocol_options(p)
-    add_common_options(p)
-    p.set_defaults(func=cmd_wedge)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The wedge study of ``options`` into ``out_dir`` (see the module docstring)."""
-    return api.run_body("wedge", _run_study, options, out_dir, progress, cancel)
-
-
-def cmd_wedge(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options)
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -136,6 +124,9 @@ def _run_study(options: Options, out: Path) -> int:
     wall = time.perf_counter() - t0
     return write_wedge_outputs(out, specs, outcomes[:len(specs)], wall,
                                increment_outcomes=outcomes[len(specs):])
+
+
+run = api.study_run("wedge", _run_study)
 
 
 # ----------------------------------------------------------------------------- outputs
