@@ -27,7 +27,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -315,8 +314,7 @@ def _grid(options: Options) -> dict:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .run_files import failures_text
-    from .study_command import check_common_options, first_problem, run_study
+    from .study_command import check_common_options, first_problem, report_failures, run_study
 
     problem = check_common_options(options)
     grid = None
@@ -334,13 +332,8 @@ def _run_study(options: Options, out: Path) -> int:
         (options.duration is None or options.duration > 0, "--duration must be > 0"),
         (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
-    problem = first_problem(problem, checks)
-    if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
-    out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
-                               desc="detumble runs")
+                               desc="detumble runs", problem=first_problem(problem, checks))
     if code is not None:
         return code
     summary = write_outputs(out, outcomes, options.threshold)
@@ -354,11 +347,7 @@ def _run_study(options: Options, out: Path) -> int:
         print(f"{r['run_id']:36s} {r['omega0'] / DEG:8.3g} {td:>10s} "
               f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s}")
     print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
-    failed = failures_text(outcomes)
-    if failed:
-        print("failed runs:\n" + failed, file=sys.stderr)
-        return 1
-    return 0
+    return report_failures(outcomes)
 
 
 run = api.study_run("detumble", _run_study)

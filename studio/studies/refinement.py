@@ -23,10 +23,11 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .run_files import failures_text, write_json_atomic, write_outcomes
+from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import check_common_options, run_many_from_args, set_command
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
 from .wedge import TASK
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
@@ -135,11 +136,7 @@ def _run_study(options: Options, out: Path) -> int:
     wall = time.perf_counter() - t0
     rows = refinement_table(levels, outcomes, ceiling)
     write_refinement_outputs(out, rows, outcomes, ceiling, src, wall)
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)
 
 
 run = api.study_run("refinement", _run_study)

@@ -10,7 +10,6 @@ per simulation); written by :mod:`studio.studies.rod_outputs`.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
@@ -120,8 +119,7 @@ def add_parser(study_subparsers) -> None:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .run_files import failures_text
-    from .study_command import check_common_options, first_problem, run_study
+    from .study_command import check_common_options, first_problem, report_failures, run_study
 
     from .preset_option import PresetChoiceError, chosen
 
@@ -152,11 +150,6 @@ def _run_study(options: Options, out: Path) -> int:
               (options.settle_periods > 0 and options.measure_periods >= 1,
                "--settle-periods must be > 0 and --measure-periods >= 1"),
               (options.min_time >= 0, "--min-time must be >= 0")]
-    problem = first_problem(problem, checks)
-    if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
-    out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(
         lambda: build_specs([c for c in cases if c in CASES], n_nodes=options.n_nodes,
                             free_duration=options.free_duration,
@@ -167,7 +160,7 @@ def _run_study(options: Options, out: Path) -> int:
                             friction_angle=math.radians(options.friction_angle),
                             settle_periods=options.settle_periods,
                             measure_periods=options.measure_periods, min_time=options.min_time),
-        out, options, desc="rod runs")
+        out, options, desc="rod runs", problem=first_problem(problem, checks))
     if code is not None:
         return code
     analytic = cantilever_frequencies()
@@ -186,11 +179,7 @@ def _run_study(options: Options, out: Path) -> int:
               + (f" (high/low peak ratio {fr['high_to_low']:.3f})" if fr.get("high_to_low")
                  is not None else " (no peak above the first mode's region)"))
     print(f"Wrote {out}/peaks.json, CSVs, rod.h5 and PNGs")
-    failed = failures_text(outcomes)
-    if failed:
-        print("failed runs:\n" + failed, file=sys.stderr)
-        return 1
-    return 0
+    return report_failures(outcomes)
 
 
 run = api.study_run("rod", _run_study)

@@ -33,10 +33,11 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .run_files import failures_text, write_json_atomic, write_outcomes
+from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import check_common_options, run_many_from_args, set_command
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
 from .wedge import TASK
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
@@ -303,11 +304,7 @@ def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
                   f"  high {r.get('peak_high_N', float('nan')):.4g} N"
                   f"  ({r['spread_rel']:+.1%} of nominal {r['peak_nominal_N']:.4g} N)")
     print(f"study wall time {wall:.1f} s; outputs in {out}/")
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)
 
 
 # ----------------------------------------------------------------------------- Monte Carlo
@@ -436,8 +433,4 @@ def write_montecarlo_outputs(out: Path, specs, outcomes, wall) -> int:
               f"{st['mean_run_wall_s']:.1f} s (CPU {st['mean_run_cpu_s']:.1f} s)")
     print(f"study wall time {wall:.1f} s; outputs in {out}/ (montecarlo.csv, samples.csv, "
           f"montecarlo.png, study.json, runs/*.h5)")
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)

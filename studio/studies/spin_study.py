@@ -10,7 +10,6 @@ Outputs (``-o DIR``): ``spin_summary.csv`` (one row per run: rest time, contacts
 """
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
@@ -117,8 +116,7 @@ def add_parser(study_subparsers) -> None:
 
 def _run_study(options: Options, out: Path) -> int:
     from .preset_option import chosen
-    from .run_files import failures_text
-    from .study_command import check_common_options, first_problem, run_study
+    from .study_command import check_common_options, first_problem, report_failures, run_study
 
     problem = check_common_options(options)
     try:
@@ -142,18 +140,13 @@ def _run_study(options: Options, out: Path) -> int:
         (options.tip_variance > 0, "--tip-variance must be > 0"),
         (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
-    problem = first_problem(problem, checks)
-    if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
-    out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(
         lambda: build_specs(cubes, configs, n_nodes=options.n_nodes, omega0=options.omega0,
                             duration=options.duration, grid=grid,
                             random_seeds=options.random_seeds, random_cube=options.random_cube,
                             random_config=options.random_config, tip_variance=options.tip_variance,
                             record_interval=options.record_interval),
-        out, options, desc="spin runs")
+        out, options, desc="spin runs", problem=first_problem(problem, checks))
     if code is not None:
         return code
     summary = write_outputs(out, outcomes)
@@ -163,11 +156,7 @@ def _run_study(options: Options, out: Path) -> int:
         print(f"{r['run_id']:28s} {rest:>10s} {r['n_contacts']:8d}  "
               f"{r['delta_omega_spread']:.3g}")
     print(f"Wrote {out}/spin_summary.csv, contacts.csv, omega.csv, spin.h5 and PNGs")
-    failed = failures_text(outcomes)
-    if failed:
-        print("failed runs:\n" + failed, file=sys.stderr)
-        return 1
-    return 0
+    return report_failures(outcomes)
 
 
 run = api.study_run("spin", _run_study)

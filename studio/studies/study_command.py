@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from .run_files import RunOutcome, write_outcomes
+from .run_files import RunOutcome, failures_text, write_outcomes
+from ..exit_codes import EXIT_FAILED, EXIT_OK
 from .runner import RunSpec, default_workers, run_many
 
 def add_common_options(parser: argparse.ArgumentParser, default_output: Optional[str] = None,
@@ -77,12 +78,19 @@ def first_problem(problem: Optional[str], checks) -> Optional[str]:
 
 
 def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
-              desc: str) -> tuple[Optional[int], list[RunOutcome]]:
-    """The common body of a study command: build the specs (a missing preset or an invalid
-    scene is bad input, exit 2, before anything runs), run them with the common options,
-    write ``outcomes.json``. Returns (exit code to return now, or None; the outcomes)."""
+              desc: str, problem: Optional[str] = None
+              ) -> tuple[Optional[int], list[RunOutcome]]:
+    """The common body of a study command: refuse the ``problem`` the command found in its
+    options (:func:`first_problem`), build the specs (a missing preset or an invalid scene
+    is bad input too: exit 2, before anything runs), run them with the common options into
+    ``out_dir``, write ``outcomes.json``. Returns (exit code to return now, or None; the
+    outcomes)."""
     import engine
 
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2, []
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
     try:
         specs = make_specs()
         for s in specs:  # every scene valid before anything runs
@@ -102,3 +110,13 @@ def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
         return 130, []
     write_outcomes(out_dir / "outcomes.json", outcomes)
     return None, outcomes
+
+
+def report_failures(outcomes: Sequence[RunOutcome]) -> int:
+    """A study's exit code from its outcomes: EXIT_OK when every run completed, else the
+    runs that did not listed on stderr (:func:`failures_text`) and EXIT_FAILED."""
+    failed = failures_text(outcomes)
+    if failed:
+        print("failed runs:\n" + failed, file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK

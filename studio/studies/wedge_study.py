@@ -19,15 +19,16 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .run_files import failures_text, write_json_atomic, write_outcomes
+from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import check_common_options, run_many_from_args, set_command
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
 from .wedge import INCREMENT_TOLERANCE, TASK, curve_checks, increment_check
 from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options,
                              protocol_from_options, step_duration)
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
                            validate_scenes, wedge_angle_deg)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
 
 
 @dataclass
@@ -207,11 +208,7 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
               f"{c['tolerance']:.0%}")
     print(f"study wall time {wall:.1f} s; outputs in {out}/ (force_depth.csv, "
           f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
-    fails = failures_text(list(outcomes) + list(increment_outcomes))
-    if fails:
-        _err("failed runs:\n" + fails)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(list(outcomes) + list(increment_outcomes))
 
 
 def write_force_depth_csv(path: Path, depths, forces, phases, extra: Optional[dict] = None
