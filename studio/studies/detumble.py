@@ -221,10 +221,9 @@ def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
 def _floats(text: Optional[str], what: str) -> list:
     if text is None:
         return [None]
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"{what} {text!r}: expected comma-separated numbers") from None
+    from .study_command import number_list
+
+    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
     if not values or any(not math.isfinite(v) or v <= 0 for v in values):
         raise ValueError(f"{what} {text!r}: numbers > 0")
     return values

@@ -51,14 +51,6 @@ def build_specs(cases: Sequence[str], *, n_nodes: Optional[int], free_duration: 
 
 
 # ----------------------------------------------------------------------------- CLI
-def _floats(text: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"{text!r}: expected comma-separated numbers") from None
-    return vals
-
-
 @dataclass
 class Options(ExecutionOptions):
     """``brush-studio study rod`` (``None``: the presets' value)."""
@@ -119,7 +111,8 @@ def add_parser(study_subparsers) -> None:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .study_command import check_common_options, first_problem, report_failures, run_study
+    from .study_command import (check_common_options, first_problem, number_list,
+                                report_failures, run_study)
 
     from .preset_option import PresetChoiceError, chosen
 
@@ -134,8 +127,9 @@ def _run_study(options: Options, out: Path) -> int:
     except PresetChoiceError as exc:
         problem = problem or str(exc)
     try:
-        freqs = (_floats(options.frequencies) if options.frequencies
-                 else list(DEFAULT_RESPONSE_FREQUENCIES))
+        freqs = (number_list(options.frequencies, float,
+                             f"{options.frequencies!r}: expected comma-separated numbers")
+                 if options.frequencies else list(DEFAULT_RESPONSE_FREQUENCIES))
     except ValueError as exc:
         problem = f"--frequencies: {exc}"
         freqs = []

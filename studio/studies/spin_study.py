@@ -53,10 +53,9 @@ def build_specs(cubes: Sequence[int], configs: Sequence[int], *, n_nodes=None, o
 
 # ----------------------------------------------------------------------------- CLI
 def _ints(text: str, what: str) -> list[int]:
-    try:
-        return [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"{what} {text!r}: expected comma-separated integers") from None
+    from .study_command import number_list
+
+    return number_list(text, int, f"{what} {text!r}: expected comma-separated integers")
 
 
 @dataclass

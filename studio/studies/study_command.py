@@ -49,6 +49,16 @@ def set_command(parser: argparse.ArgumentParser, run: Callable, options: type, *
     parser.set_defaults(func=command, **defaults)
 
 
+def number_list(text: str, convert: Callable = float,
+                message: str = "expected comma-separated numbers") -> list:
+    """The numbers of a comma-separated option value (``"20,40,60"``; empty items skipped),
+    each through ``convert``; ValueError(``message``) where one is not a number."""
+    try:
+        return [convert(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(message) from None
+
+
 def check_common_options(args) -> Optional[str]:
     """A message for a bad common option, or None."""
     if args.workers is not None and args.workers < 1:

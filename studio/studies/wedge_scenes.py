@@ -10,6 +10,8 @@ import math
 from pathlib import Path
 from typing import Optional
 
+from .study_command import number_list
+
 DEFAULT_PRESET = "wedge_60"
 
 
@@ -70,9 +72,9 @@ def set_wedge_angle(scene: dict, angle_deg: float, body: str = "wedge") -> dict:
 
 def _parse_angles(text: str) -> list[float]:
     try:
-        angles = [float(a) for a in text.split(",") if a.strip()]
-    except ValueError:
-        raise StudyInputError(f"--angles {text!r}: expected degrees like 30,45,60,75") from None
+        angles = number_list(text, float, f"--angles {text!r}: expected degrees like 30,45,60,75")
+    except ValueError as exc:
+        raise StudyInputError(str(exc)) from None
     if not angles or any(not 0 < a < 180 for a in angles):
         raise StudyInputError(f"--angles {text!r}: each angle in (0, 180) degrees")
     return angles
