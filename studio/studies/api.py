@@ -187,6 +187,19 @@ def cancel_requested() -> bool:
     return current().cancelled()
 
 
+def study_run(study: str, body: Callable[[Any, Path], int]) -> Callable[..., StudyResult]:
+    """A study's ``run(options, out_dir, *, progress=None, cancel=None) -> StudyResult``:
+    its body ``body(options, out_dir) -> exit code`` through :func:`run_body`."""
+
+    def run(options, out_dir, *, progress: Optional[ProgressFn] = None,
+            cancel: Any = None) -> StudyResult:
+        return run_body(study, body, options, out_dir, progress, cancel)
+
+    run.__doc__ = (f"The {study} study of ``options`` into ``out_dir`` (progress and cancel: "
+                   f":func:`studio.studies.api.run_body`).")
+    return run
+
+
 def run_body(study: str, body: Callable[[Any, Path], int], options, out_dir,
              progress: Optional[ProgressFn] = None, cancel: Any = None) -> StudyResult:
     """Run a study's body ``body(options, out_dir) -> exit code`` in a session of

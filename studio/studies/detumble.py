@@ -24,19 +24,17 @@ Outputs (``-o DIR``): ``detumble_summary.json`` (every run's numbers and paramet
 """
 from __future__ import annotations
 
-import copy
 import csv
 import json
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 
 from . import api
-from .api import ExecutionOptions, StudyResult
+from .api import ExecutionOptions
 from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
 
 PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
@@ -198,7 +196,7 @@ def build_specs(options: "Options", grid: dict):
 
 def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
     """detumble_summary.json / .csv and omega.png from the finished runs."""
-    from .runner import write_json_atomic
+    from .run_files import write_json_atomic
 
     out_dir = Path(out_dir)
     ok = [o for o in outcomes if o.ok]
@@ -223,10 +221,9 @@ def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
 def _floats(text: Optional[str], what: str) -> list:
     if text is None:
         return [None]
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"{what} {text!r}: expected comma-separated numbers") from None
+    from .study_command import number_list
+
+    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
     if not values or any(not math.isfinite(v) or v <= 0 for v in values):
         raise ValueError(f"{what} {text!r}: numbers > 0")
     return values
@@ -251,7 +248,7 @@ class Options(ExecutionOptions):
 
 
 def add_parser(study_subparsers) -> None:
-    from .runner import add_common_options
+    from .study_command import set_command
 
     p = study_subparsers.add_parser(
         "detumble", help="a chaser's brush detumbles a spinning target in orbit (issue 15)",
@@ -285,18 +282,7 @@ def add_parser(study_subparsers) -> None:
                    help="simulated time per run at most (default: the preset's; a run "
                         "stops earlier once the target is detumbled)")
     p.add_argument("--record-interval", type=float, default=None, metavar="S")
-    add_common_options(p, default_output="study-detumble")
-    p.set_defaults(func=_cmd_detumble)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The detumble study of ``options`` into ``out_dir``."""
-    return api.run_body("detumble", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_detumble(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, default_output="study-detumble")
 
 
 def _grid(options: Options) -> dict:
@@ -327,7 +313,7 @@ def _grid(options: Options) -> dict:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .runner import check_common_options, failures_text, first_problem, run_study
+    from .study_command import check_common_options, first_problem, report_failures, run_study
 
     problem = check_common_options(options)
     grid = None
@@ -345,13 +331,8 @@ def _run_study(options: Options, out: Path) -> int:
         (options.duration is None or options.duration > 0, "--duration must be > 0"),
         (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
-    problem = first_problem(problem, checks)
-    if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
-    out.mkdir(parents=True, exist_ok=True)
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
-                               desc="detumble runs")
+                               desc="detumble runs", problem=first_problem(problem, checks))
     if code is not None:
         return code
     summary = write_outputs(out, outcomes, options.threshold)
@@ -365,8 +346,7 @@ def _run_study(options: Options, out: Path) -> int:
         print(f"{r['run_id']:36s} {r['omega0'] / DEG:8.3g} {td:>10s} "
               f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s}")
     print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
-    failed = failures_text(outcomes)
-    if failed:
-        print("failed runs:\n" + failed, file=sys.stderr)
-        return 1
-    return 0
+    return report_failures(outcomes)
+
+
+run = api.study_run("detumble", _run_study)

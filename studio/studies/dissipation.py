@@ -348,7 +348,7 @@ def write_outputs(fit: DissipationFit, out_dir: Path, source: str = "") -> dict[
     info = dict(fit.to_dict(), source=source,
                 model="d(omega)/dt = -k1 omega - k2 sign(omega) (seed eq. 4.6)",
                 units={"k1": "1/s", "k2": "rad/s^2", "omega": "rad/s", "time": "s"})
-    from .runner import write_json_atomic
+    from .run_files import write_json_atomic
 
     write_json_atomic(paths["json"], info)
     cols = ["time", "angle", "angle_filtered", "omega", "alpha", "used_in_fit", "omega_model"]

@@ -27,6 +27,23 @@ def _plt():
     return _Figures
 
 
+def _save(fig, path: Path) -> None:
+    """Lay the figure out, write it as a PNG (120 dpi) and free it."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    _plt().close(fig)
+
+
+def _finish_depth_plot(fig, ax, ylabel: str, title: str, path: Path) -> None:
+    """Label a plot of curves against penetration depth (title, grid, legend) and save it."""
+    ax.set_xlabel("penetration depth [mm]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    _save(fig, path)
+
+
 def split_phases(depths, forces, phases):
     """(loading depths, forces), (unloading depths, forces); the unloading curve starts at
     the deepest loading point so that the two curves meet there."""
@@ -51,14 +68,7 @@ def plot_force_depth(curves: Sequence[tuple], path: Path, title: str) -> None:
         if ud:
             ax.plot([d * 1e3 for d, _ in ud], [f for _, f in ud], "s--", color=color, ms=3,
                     mfc="none", label=f"{label} unloading")
-    ax.set_xlabel("penetration depth [mm]")
-    ax.set_ylabel("vertical root force (change from rest) [N]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish_depth_plot(fig, ax, "vertical root force (change from rest) [N]", title, path)
 
 
 def plot_mean_std(groups: Sequence[tuple], path: Path, title: str) -> None:
@@ -73,14 +83,7 @@ def plot_mean_std(groups: Sequence[tuple], path: Path, title: str) -> None:
         ax.errorbar([d * 1e3 for d in depths], mean, yerr=std, color=colors[key],
                     fmt="o-" if phase == "load" else "s--", ms=3, capsize=2, lw=1,
                     mfc=None if phase == "load" else "none", label=f"{label} {phase}")
-    ax.set_xlabel("penetration depth [mm]")
-    ax.set_ylabel("vertical root force [N] (mean ± std)")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish_depth_plot(fig, ax, "vertical root force [N] (mean ± std)", title, path)
 
 
 def plot_refinement(nodes, forces, walls, path: Path, title: str, ceiling=None) -> None:
@@ -101,9 +104,7 @@ def plot_refinement(nodes, forces, walls, path: Path, title: str, ceiling=None) 
         a1.text(ceiling, a1.get_ylim()[0], " seed's node-overlap ceiling", rotation=90,
                 va="bottom", fontsize=7, color="grey")
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def plot_sensitivity(panels: Sequence[tuple], path: Path, title: str) -> None:
@@ -130,6 +131,4 @@ def plot_sensitivity(panels: Sequence[tuple], path: Path, title: str) -> None:
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _save(fig, path)

@@ -23,14 +23,15 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .api import StudyResult
-
-from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
-                     run_many_from_args, write_json_atomic, write_outcomes)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
-from .wedge import (TASK,
-                    StudyInputError, add_protocol_options, apply_resolution,
-                    ProtocolOptions, protocol_from_options, resolve_scenes, validate_scenes, wedge_angle_deg)
+from .run_files import write_json_atomic, write_outcomes
+from .runner import RunSpec
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+from .wedge import TASK
+from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
+from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
+                           wedge_angle_deg)
 
 DEFAULT_LEVELS = "4,6,8,12,17,24,32"
 DEFAULT_DEPTH_MM = 5.0
@@ -85,18 +86,7 @@ def add_parser(sub) -> None:
     p.add_argument("--levels", default=DEFAULT_LEVELS, metavar="N,...",
                    help=f"nodes per bristle (default {DEFAULT_LEVELS})")
     add_protocol_options(p)
-    add_common_options(p)
-    p.set_defaults(func=cmd_refinement, angles=None)
-
-
-def run(options: Options, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The refinement study of ``options`` into ``out_dir``."""
-    return api.run_body("refinement", _run_study, options, out_dir, progress, cancel)
-
-
-def cmd_refinement(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
+    set_command(p, run, Options, angles=None)
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -146,11 +136,10 @@ def _run_study(options: Options, out: Path) -> int:
     wall = time.perf_counter() - t0
     rows = refinement_table(levels, outcomes, ceiling)
     write_refinement_outputs(out, rows, outcomes, ceiling, src, wall)
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)
+
+
+run = api.study_run("refinement", _run_study)
 
 
 def refinement_table(levels, outcomes, ceiling) -> list[dict]:

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
-from . import convergence, detumble, refinement, rod, sensitivity, spin, wedge
+from . import (convergence, detumble, refinement, rod_study, sensitivity, spin_study,
+               wedge_study)
 
 
 @dataclass(frozen=True)
@@ -48,15 +49,15 @@ def _montecarlo_parser(sub) -> None:
 
 #: study name -> Study (``convergence`` is a top-level command, the others ``study NAME``)
 REGISTRY: dict[str, Study] = {
-    "wedge": Study("wedge", wedge.Options, wedge.run, wedge.add_parser),
-    "spin": Study("spin", spin.Options, spin.run, spin.add_parser),
+    "wedge": Study("wedge", wedge_study.Options, wedge_study.run, wedge_study.add_parser),
+    "spin": Study("spin", spin_study.Options, spin_study.run, spin_study.add_parser),
     "refinement": Study("refinement", refinement.Options, refinement.run,
                         refinement.add_parser),
     "sensitivity": Study("sensitivity", sensitivity.SensitivityOptions,
                          sensitivity.run_sensitivity, sensitivity.add_parser),
     "montecarlo": Study("montecarlo", sensitivity.MonteCarloOptions,
                         sensitivity.run_montecarlo, _montecarlo_parser),
-    "rod": Study("rod", rod.Options, rod.run, rod.add_parser),
+    "rod": Study("rod", rod_study.Options, rod_study.run, rod_study.add_parser),
     "detumble": Study("detumble", detumble.Options, detumble.run, detumble.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),

@@ -11,8 +11,10 @@ Every run writes ``out_dir/runs/<run_id>.h5`` (the task decides what goes into i
 and atomically, ``out_dir/runs/<run_id>.json`` (its :class:`RunOutcome`, plus a hash of the
 run's scene, parameters and task). A study that is stopped and started again skips every run
 whose ``.json`` says ``completed`` or ``stopped`` for the same hash; a run that failed, was
-cancelled or never finished runs again. A failing run is reported with its parameters
-(:func:`failures_text`); the other runs go on.
+cancelled or never finished runs again (those files: :mod:`studio.studies.run_files`). A
+failing run is reported with its parameters (:func:`studio.studies.run_files.failures_text`);
+the other runs go on. The options and body every study command shares are in
+:mod:`studio.studies.study_command`.
 
 A task is ``"module:function"``, called on the worker as
 ``fn(scene: engine.Scene, h5_path: pathlib.Path, params: dict) -> dict`` (a small JSON-able
@@ -34,7 +36,6 @@ do not oversubscribe either. With ``--scheduler`` the workers must import this p
 """
 from __future__ import annotations
 
-import argparse
 import hashlib
 import importlib
 import json
@@ -42,16 +43,16 @@ import os
 import sys
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Callable, Optional, Sequence
 
-from engine.jsonable import json_text, jsonable  # noqa: F401  (studies import jsonable from here)
+from engine.jsonable import jsonable
 from . import api
+from .run_files import (DONE_STATUSES, STATUSES, RunOutcome, load_outcome, outcome_from_dict,
+                        run_paths, write_json_atomic)
 
 DEFAULT_TASK = "studio.studies.runner:plain_run"
-DONE_STATUSES = ("completed", "stopped")
-STATUSES = ("completed", "stopped", "failed", "cancelled")
 
 
 # ----------------------------------------------------------------------------- data
@@ -77,70 +78,12 @@ class RunSpec:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-@dataclass
-class RunOutcome:
-    """What became of one run. ``status``: completed | stopped | failed | cancelled;
-    ``summary``: what the task returned; ``error``: ``"Type: message"`` for a failed run;
-    ``h5``: the run's HDF5 file; ``wall_s``: wall time of the task on its worker;
-    ``skipped``: ``True`` when it was already complete from an earlier attempt."""
-
-    run_id: str
-    params: dict
-    status: str
-    summary: dict
-    error: Optional[str]
-    h5: Path
-    wall_s: float
-    skipped: bool = False
-
-    @property
-    def ok(self) -> bool:
-        return self.status in DONE_STATUSES
-
-    def to_dict(self) -> dict:
-        d = asdict(self)
-        d["h5"] = str(self.h5)
-        return d
-
-
-# ----------------------------------------------------------------------------- JSON helpers
-def write_json_atomic(path: Path, data: Any) -> None:
-    """Write ``data`` as JSON to ``path`` via a temporary file and ``os.replace``: the path
-    holds either the old or the new complete file, never a partial one."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json_text(data, indent=1) + "\n")
-    os.replace(tmp, path)
-
-
-def run_paths(out_dir: Path, run_id: str) -> tuple[Path, Path]:
-    """``(h5, json)`` paths of a run in a study's output folder."""
-    runs = Path(out_dir) / "runs"
-    return runs / f"{run_id}.h5", runs / f"{run_id}.json"
-
-
 def _check_run_id(run_id: str) -> None:
     ok = run_id and all(c.isalnum() or c in "._-" for c in run_id) and run_id[0] not in ".-"
     if not ok:
         raise ValueError(f"run_id {run_id!r}: use letters, digits, '.', '_' and '-' only "
                          f"(it names the run's files), not starting with '.' or '-'")
 
-
-def load_outcome(out_dir: Path, run_id: str) -> Optional[dict]:
-    """The stored outcome of a run (the ``.json`` as a dict), or ``None`` if there is none
-    or it cannot be read."""
-    _, js = run_paths(out_dir, run_id)
-    try:
-        return json.loads(js.read_text())
-    except (OSError, ValueError):
-        return None
-
-
-def _outcome_from_dict(d: dict, skipped: bool) -> RunOutcome:
-    return RunOutcome(run_id=d["run_id"], params=d.get("params", {}), status=d["status"],
-                      summary=d.get("summary") or {}, error=d.get("error"),
-                      h5=Path(d["h5"]), wall_s=float(d.get("wall_s", 0.0)), skipped=skipped)
 
 
 # ----------------------------------------------------------------------------- worker side
@@ -361,7 +304,7 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
         old = load_outcome(out_dir, spec.run_id)
         if old and old.get("status") in DONE_STATUSES and old.get("digest") == digest \
                 and Path(old.get("h5", "")).exists():
-            outcomes[i] = _outcome_from_dict(old, skipped=True)
+            outcomes[i] = outcome_from_dict(old, skipped=True)
             continue
         try:  # a progress note left by a run killed earlier
             progress_path(out_dir, spec.run_id).unlink()
@@ -387,7 +330,7 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
                                  f"{type(result).__name__}: {result}", h5, 0.0)
             write_json_atomic(js, dict(outcome.to_dict(), digest=d["digest"], task=d["task"]))
         else:
-            outcome = _outcome_from_dict(result, skipped=False)
+            outcome = outcome_from_dict(result, skipped=False)
         outcomes[i] = outcome
         if not outcome.ok:
             tally["failed"] += 1
@@ -494,97 +437,3 @@ def _completed(futures: dict, bar, out_dir: Path, n_before: int):
             bar.n = n
             _refresh(bar)
         api.check_cancel()  # the caller cancels the queued tasks
-
-
-def failures_text(outcomes: Sequence[RunOutcome]) -> str:
-    """One line per run that did not complete: id, status, error and parameters."""
-    lines = []
-    for o in outcomes:
-        if not o.ok:
-            lines.append(f"{o.run_id}: {o.status}: {o.error}; params {json.dumps(jsonable(o.params))}")
-    return "\n".join(lines)
-
-
-def write_outcomes(path: Path, outcomes: Sequence[RunOutcome]) -> None:
-    """All outcomes as one JSON list (written atomically)."""
-    write_json_atomic(path, [o.to_dict() for o in outcomes])
-
-
-# ----------------------------------------------------------------------------- CLI helpers
-def add_common_options(parser: argparse.ArgumentParser, default_output: Optional[str] = None,
-                       ) -> None:
-    """Options every study command has: ``-o/--output DIR``, ``--scheduler``, ``--workers``,
-    ``--no-progress``."""
-    g = parser.add_argument_group("output and execution")
-    if default_output is None:
-        g.add_argument("-o", "--output", metavar="DIR", required=True,
-                       help="output folder (created; a restart in the same folder skips "
-                            "runs already complete)")
-    else:
-        g.add_argument("-o", "--output", metavar="DIR", default=default_output,
-                       help=f"output folder (default ./{default_output}; a restart in the "
-                            f"same folder skips runs already complete)")
-    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
-                   help="address of an existing Dask scheduler (its workers must see DIR); "
-                        "default: a local cluster, one single-threaded worker per core")
-    g.add_argument("--workers", type=int, metavar="N", default=None,
-                   help=f"worker processes of the local cluster (default: one per core, "
-                        f"{default_workers()} here); 1 runs the runs in this process, "
-                        f"one after another, without a cluster")
-    g.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-
-def check_common_options(args) -> Optional[str]:
-    """A message for a bad common option, or None."""
-    if args.workers is not None and args.workers < 1:
-        return f"--workers = {args.workers}: must be >= 1"
-    if args.scheduler is not None and args.workers is not None:
-        return "--workers applies to the local cluster only; leave it out with --scheduler"
-    if args.scheduler is not None and "://" not in args.scheduler:
-        return f"--scheduler = {args.scheduler!r}: expected an address like tcp://HOST:PORT"
-    return None
-
-
-def run_many_from_args(specs: Sequence[RunSpec], out_dir, args, desc: str = "runs"
-                       ) -> list[RunOutcome]:
-    """``run_many`` with the common options of ``args``."""
-    return run_many(specs, out_dir, scheduler=args.scheduler, n_workers=args.workers,
-                    progress=not args.no_progress, desc=desc)
-
-
-def first_problem(problem: Optional[str], checks) -> Optional[str]:
-    """``problem`` if set, else the message of the first ``(ok, message)`` check that fails."""
-    for ok, message in checks:
-        if problem is not None:
-            break
-        if not ok:
-            problem = message
-    return problem
-
-
-def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
-              desc: str) -> tuple[Optional[int], list[RunOutcome]]:
-    """The common body of a study command: build the specs (a missing preset or an invalid
-    scene is bad input, exit 2, before anything runs), run them with the common options,
-    write ``outcomes.json``. Returns (exit code to return now, or None; the outcomes)."""
-    import engine
-
-    try:
-        specs = make_specs()
-        for s in specs:  # every scene valid before anything runs
-            engine.parse_scene(s.scene)
-    except engine.SceneError as exc:
-        print("error: invalid scene: " + "; ".join(str(p) for p in exc.problems),
-              file=sys.stderr)
-        return 2, []
-    except KeyError as exc:  # a missing preset
-        print(f"error: {exc}", file=sys.stderr)
-        return 2, []
-    try:
-        outcomes = run_many_from_args(specs, out_dir, args, desc=desc)
-    except KeyboardInterrupt:
-        print("cancelled: finished runs are kept; run the same command again to resume",
-              file=sys.stderr)
-        return 130, []
-    write_outcomes(out_dir / "outcomes.json", outcomes)
-    return None, outcomes

@@ -33,14 +33,15 @@ from pathlib import Path
 from typing import Optional
 
 from . import api
-from .api import StudyResult
-
-from .runner import (RunSpec, add_common_options, check_common_options, failures_text,
-                     run_many_from_args, write_json_atomic, write_outcomes)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
-from .wedge import (TASK,
-                    StudyInputError, add_protocol_options, apply_resolution,
-                    ProtocolOptions, protocol_from_options, resolve_scenes, validate_scenes, wedge_angle_deg)
+from .run_files import write_json_atomic, write_outcomes
+from .runner import RunSpec
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+from .wedge import TASK
+from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
+from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
+                           wedge_angle_deg)
 
 # name: (label, unit shown, low, high, nominal or None = the scene's value); SI inside
 PARAMETERS = {
@@ -159,8 +160,7 @@ def add_parser(sub) -> None:
                     "study.json and one HDF5 per run.")
     _add_scene_options(p)
     add_protocol_options(p)
-    add_common_options(p)
-    p.set_defaults(func=cmd_sensitivity)
+    set_command(p, run_sensitivity, SensitivityOptions)
 
     m = sub.add_parser(
         "montecarlo", help="all uncertain parameters at once; mean +- std per depth "
@@ -175,8 +175,7 @@ def add_parser(sub) -> None:
     m.add_argument("--seed", type=int, default=1, help="random seed of the samples")
     _add_scene_options(m)
     add_protocol_options(m)
-    add_common_options(m)
-    m.set_defaults(func=cmd_montecarlo)
+    set_command(m, run_montecarlo, MonteCarloOptions)
 
 
 def _prepare(options, default_depth_mm, default_nodes):
@@ -192,56 +191,59 @@ def _prepare(options, default_depth_mm, default_nodes):
                               ) from None
 
 
-def _run(specs, options, out: Path, desc):
-    bad = validate_scenes([s.scene for s in specs])
-    if bad:
-        raise StudyInputError(bad)
-    return run_many_from_args(specs, out, options, desc=desc)
-
-
-# ----------------------------------------------------------------------------- sensitivity
-def run_sensitivity(options: SensitivityOptions, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The sensitivity study of ``options`` into ``out_dir``."""
-    return api.run_body("sensitivity", _run_sensitivity, options, out_dir, progress, cancel)
-
-
-def cmd_sensitivity(args) -> int:
-    return run_sensitivity(SensitivityOptions.from_args(args), args.output).exit_code
-
-
-def _run_sensitivity(options: SensitivityOptions, out: Path) -> int:
+def _run_and_write(make_specs, options, out: Path, desc: str, kept: str, write) -> int:
+    """The body both commands share: build the runs (``make_specs()``; a bad input or an
+    invalid scene is exit 2 before anything runs), run them (a cancel keeps the finished
+    ``kept``: exit 130) and write the outputs (``write(out, specs, outcomes, wall)``)."""
     try:
-        scenes = _prepare(options, 10.0, None)
-        specs = []
-        for rid, scene, src in scenes:
-            scene = apply_resolution(scene, options.nodes)
-            nom = nominal_values(scene)
-            cases = [("nominal", None, None)]
-            for name, (_, _, lo, hi, _) in PARAMETERS.items():
-                cases += [(f"{name}_low", name, lo), (f"{name}_high", name, hi)]
-            for case, name, value in cases:
-                values = dict(nom)
-                if name is not None:
-                    values[name] = value
-                sc = apply_parameters(scene, values)
-                specs.append(RunSpec(f"{rid}.{case}", sc, {
-                    "scene": rid, "case": case, "parameter": name, "value": value,
-                    "values": values, "angle_deg": wedge_angle_deg(sc), "source": src,
-                    "protocol": protocol_from_options(sc, options)}, TASK))
-        print(f"sensitivity: {len(scenes)} scene(s) x {len(specs) // len(scenes)} runs, to "
-              f"{options.depth_mm:g} mm")
+        specs = make_specs()
         t0 = time.perf_counter()
-        outcomes = _run(specs, options, out, "sensitivity runs")
+        bad = validate_scenes([s.scene for s in specs])
+        if bad:
+            raise StudyInputError(bad)
+        outcomes = run_many_from_args(specs, out, options, desc=desc)
     except StudyInputError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        print("cancelled: finished runs are kept; run the same command again to go on",
+        print(f"cancelled: finished {kept} are kept; run the same command again to go on",
               file=sys.stderr)
         return EXIT_CANCELLED
     wall = time.perf_counter() - t0
-    return write_sensitivity_outputs(out, specs, outcomes, wall)
+    return write(out, specs, outcomes, wall)
+
+
+# ----------------------------------------------------------------------------- sensitivity
+def _run_sensitivity(options: SensitivityOptions, out: Path) -> int:
+    return _run_and_write(lambda: _sensitivity_specs(options), options, out, "sensitivity runs",
+                          "runs", write_sensitivity_outputs)
+
+
+run_sensitivity = api.study_run("sensitivity", _run_sensitivity)
+
+
+def _sensitivity_specs(options: SensitivityOptions) -> list:
+    """The nominal run and each parameter at both ends of its range, for every scene."""
+    scenes = _prepare(options, 10.0, None)
+    specs = []
+    for rid, scene, src in scenes:
+        scene = apply_resolution(scene, options.nodes)
+        nom = nominal_values(scene)
+        cases = [("nominal", None, None)]
+        for name, (_, _, lo, hi, _) in PARAMETERS.items():
+            cases += [(f"{name}_low", name, lo), (f"{name}_high", name, hi)]
+        for case, name, value in cases:
+            values = dict(nom)
+            if name is not None:
+                values[name] = value
+            sc = apply_parameters(scene, values)
+            specs.append(RunSpec(f"{rid}.{case}", sc, {
+                "scene": rid, "case": case, "parameter": name, "value": value,
+                "values": values, "angle_deg": wedge_angle_deg(sc), "source": src,
+                "protocol": protocol_from_options(sc, options)}, TASK))
+    print(f"sensitivity: {len(scenes)} scene(s) x {len(specs) // len(scenes)} runs, to "
+          f"{options.depth_mm:g} mm")
+    return specs
 
 
 def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
@@ -302,11 +304,7 @@ def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
                   f"  high {r.get('peak_high_N', float('nan')):.4g} N"
                   f"  ({r['spread_rel']:+.1%} of nominal {r['peak_nominal_N']:.4g} N)")
     print(f"study wall time {wall:.1f} s; outputs in {out}/")
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)
 
 
 # ----------------------------------------------------------------------------- Monte Carlo
@@ -340,51 +338,39 @@ def mean_std_table(summaries: list[dict]) -> list[dict]:
     return rows
 
 
-def run_montecarlo(options: MonteCarloOptions, out_dir, *, progress: Optional[api.ProgressFn] = None,
-        cancel=None) -> StudyResult:
-    """The montecarlo study of ``options`` into ``out_dir``."""
-    return api.run_body("montecarlo", _run_montecarlo, options, out_dir, progress, cancel)
-
-
-def cmd_montecarlo(args) -> int:
-    return run_montecarlo(MonteCarloOptions.from_args(args), args.output).exit_code
-
-
 def _run_montecarlo(options: MonteCarloOptions, out: Path) -> int:
     if options.samples < 2:
         print(f"--samples = {options.samples}: must be >= 2 (a standard deviation)",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    try:
-        scenes = _prepare(options, None, None)
-        samples = draw_samples(options.samples, options.seed)
-        specs = []
-        for rid, scene, src in scenes:
-            scene = apply_resolution(scene, options.nodes)
-            proto = protocol_from_options(scene, options)
-            for i, values in enumerate(samples):
-                sc = apply_parameters(scene, values)
-                specs.append(RunSpec(f"{rid}.mc{i:04d}", sc, {
-                    "scene": rid, "sample": i, "seed": options.seed, "values": values,
-                    "angle_deg": wedge_angle_deg(sc), "source": src, "protocol": proto},
-                    TASK))
-        p0 = specs[0].params["protocol"]
-        nodes = sorted({b["n_nodes"] for s in specs for b in s.scene["brushes"]})
-        print(f"Monte Carlo: {len(scenes)} scene(s) x {options.samples} samples (seed "
-              f"{options.seed}), to {p0['n_steps'] * p0['step'] * 1e3:g} mm"
-              f"{' and back' if p0['unload'] else ''}, {'/'.join(map(str, nodes))} nodes "
-              f"per bristle, {p0['method'].replace('_', '-')} method")
-        t0 = time.perf_counter()
-        outcomes = _run(specs, options, out, "Monte Carlo samples")
-    except StudyInputError as exc:
-        print(str(exc), file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("cancelled: finished samples are kept; run the same command again to go on",
-              file=sys.stderr)
-        return EXIT_CANCELLED
-    wall = time.perf_counter() - t0
-    return write_montecarlo_outputs(out, specs, outcomes, wall)
+    return _run_and_write(lambda: _montecarlo_specs(options), options, out,
+                          "Monte Carlo samples", "samples", write_montecarlo_outputs)
+
+
+run_montecarlo = api.study_run("montecarlo", _run_montecarlo)
+
+
+def _montecarlo_specs(options: MonteCarloOptions) -> list:
+    """One run per sample of the uncertain parameters, for every scene."""
+    scenes = _prepare(options, None, None)
+    samples = draw_samples(options.samples, options.seed)
+    specs = []
+    for rid, scene, src in scenes:
+        scene = apply_resolution(scene, options.nodes)
+        proto = protocol_from_options(scene, options)
+        for i, values in enumerate(samples):
+            sc = apply_parameters(scene, values)
+            specs.append(RunSpec(f"{rid}.mc{i:04d}", sc, {
+                "scene": rid, "sample": i, "seed": options.seed, "values": values,
+                "angle_deg": wedge_angle_deg(sc), "source": src, "protocol": proto},
+                TASK))
+    p0 = specs[0].params["protocol"]
+    nodes = sorted({b["n_nodes"] for s in specs for b in s.scene["brushes"]})
+    print(f"Monte Carlo: {len(scenes)} scene(s) x {options.samples} samples (seed "
+          f"{options.seed}), to {p0['n_steps'] * p0['step'] * 1e3:g} mm"
+          f"{' and back' if p0['unload'] else ''}, {'/'.join(map(str, nodes))} nodes "
+          f"per bristle, {p0['method'].replace('_', '-')} method")
+    return specs
 
 
 def write_montecarlo_outputs(out: Path, specs, outcomes, wall) -> int:
@@ -447,8 +433,4 @@ def write_montecarlo_outputs(out: Path, specs, outcomes, wall) -> int:
               f"{st['mean_run_wall_s']:.1f} s (CPU {st['mean_run_cpu_s']:.1f} s)")
     print(f"study wall time {wall:.1f} s; outputs in {out}/ (montecarlo.csv, samples.csv, "
           f"montecarlo.png, study.json, runs/*.h5)")
-    fails = failures_text(outcomes)
-    if fails:
-        print("failed runs:\n" + fails, file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+    return report_failures(outcomes)

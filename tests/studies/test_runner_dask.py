@@ -9,7 +9,8 @@ import pytest
 
 import engine
 from sweeps import modulus_sweep
-from studio.studies.runner import RunSpec, failures_text, run_many, run_paths
+from studio.studies.run_files import failures_text, run_paths
+from studio.studies.runner import RunSpec, run_many
 
 MODULI = (2.0e6, 2.7e6, 3.5e6)
 

@@ -10,7 +10,8 @@ import pytest
 import engine
 from studio.studies import runner
 from sweeps import modulus_sweep
-from studio.studies.runner import RunSpec, failures_text, run_many, run_paths
+from studio.studies.run_files import failures_text, run_paths
+from studio.studies.runner import RunSpec, run_many
 
 MODULI = (2.0e6, 3.5e6)
 

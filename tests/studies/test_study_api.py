@@ -39,7 +39,7 @@ def test_a_dict_of_options_becomes_typed_options():
 
 
 def test_a_set_cancel_stops_a_study_before_its_first_run(tmp_path):
-    from studio.studies import wedge
+    from studio.studies import wedge_study as wedge
 
     cancel = threading.Event()
     cancel.set()
@@ -54,9 +54,9 @@ def test_a_set_cancel_stops_a_study_before_its_first_run(tmp_path):
 
 
 def test_bad_options_are_bad_input_not_an_exception(tmp_path):
-    from studio.studies import rod
+    from studio.studies import rod_study
 
-    result = rod.run(rod.Options(cases="nope"), tmp_path)
+    result = rod_study.run(rod_study.Options(cases="nope"), tmp_path)
     assert result.exit_code == 2 and result.status == "bad_input"
 
 

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from studio.cli import main
-from studio.studies.wedge import PROTOCOL_DEFAULTS
+from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
 
 
 def _curve(out) -> dict[float, float]:

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from studio.cli import main
-from studio.studies.runner import load_outcome, run_paths
-from studio.studies.wedge import PROTOCOL_DEFAULTS, curve_checks, read_run_h5
+from studio.studies.run_files import load_outcome, run_paths
+from studio.studies.wedge import curve_checks, read_run_h5
+from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
 
 
 def test_wedge_command_writes_cycle_and_restarts(small_wedge_scene, write_scene, tmp_path,

@@ -16,7 +16,8 @@ import pytest
 from studio.cli import main
 from studio.studies import convergence as cv
 from studio.studies.convergence import protocol_ladder
-from studio.studies.wedge import INCREMENT_TOLERANCE, PROTOCOL_DEFAULTS
+from studio.studies.wedge import INCREMENT_TOLERANCE
+from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
 
 LADDER = (1, 2, 4)
 PRESET_FILE = Path(__file__).resolve().parents[2] / "static_presets" / "wedge_60.json"

@@ -75,7 +75,8 @@ def protocol_levels(scene: dict, quantity: Quantity, key: str, values: Sequence
                     ) -> list[Level]:
     """One level per value: the wedge study's quasi-static protocol for ``scene``, loading
     only, down to the quantity's depth, with ``key`` set to the value (``Level.protocol``)."""
-    from studio.studies.wedge import StudyInputError, make_protocol
+    from studio.studies.wedge_protocol import make_protocol
+    from studio.studies.wedge_scenes import StudyInputError
 
     if quantity.kind != "wedge_force":
         raise ConvergenceError(

@@ -1,0 +1,225 @@
+"""The wedge study (seed 4.2): force against penetration depth, loading and unloading.
+
+    brush-studio study wedge --preset static_presets/wedge_60.json -o DIR
+    brush-studio study wedge --angles 30,45,60,75 -o DIR
+
+One run per scene (per wedge angle), each a Dask task (:func:`studio.studies.wedge.wedge_cycle`,
+whose docstring gives the protocol); this module maps the command to :class:`Options`, runs
+them and writes the outputs: DIR/force_depth.csv, force_depth.png, wedge_records.csv,
+study.json, and with ``--check-increment`` the same runs with halved increments compared.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+from . import api
+from .run_files import write_json_atomic, write_outcomes
+from .runner import RunSpec
+from .study_command import (check_common_options, report_failures, run_many_from_args,
+                            set_command)
+from .wedge import INCREMENT_TOLERANCE, TASK, curve_checks, increment_check
+from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options,
+                             protocol_from_options, step_duration)
+from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
+                           validate_scenes, wedge_angle_deg)
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+
+
+@dataclass
+class Options(ProtocolOptions):
+    """``brush-studio study wedge``: the scenes (preset names or files; default wedge_60)
+    and wedge angles (``"30,45,60"``)."""
+
+    preset: list = field(default_factory=list)
+    angles: Optional[str] = None
+    check_increment: bool = False  # rerun each scene with halved increments and compare
+
+
+INCREMENT_CHECK_SUFFIX = "_half_increment"
+
+
+def _err(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+# ----------------------------------------------------------------------------- command
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "wedge", help="force against depth of a wedge pressed into the brush (seed 4.2)",
+        description="Drive the wedge down in steps with the seed's parabolic velocity, hold "
+                    "after each until the total vertical root force is steady, record it; to "
+                    "full depth and back out. Writes DIR/force_depth.csv (depth_m,force_N,"
+                    "phase), DIR/force_depth.png, DIR/wedge_records.csv, DIR/study.json and "
+                    "one HDF5 per run in DIR/runs/.")
+    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
+                   help="scene file or preset name (repeat for several; default wedge_60)")
+    p.add_argument("--angles", metavar="DEG,...",
+                   help="wedge angles in degrees, e.g. 30,45,60,75: the presets wedge_<angle> "
+                        "(or one --preset with its angle changed)")
+    p.add_argument("--check-increment", action="store_true",
+                   help="quasi-static: run every scene again with each step in twice as many "
+                        "increments and report the largest change of the recorded force "
+                        f"(study.json increment_check; converged within "
+                        f"{INCREMENT_TOLERANCE * 100:g} %%?); about 1.8x the CPU")
+    add_protocol_options(p)
+    set_command(p, run, Options)
+
+
+def _run_study(options: Options, out: Path) -> int:
+    import engine
+
+    msg = check_common_options(options)
+    if msg:
+        _err(msg)
+        return EXIT_BAD_INPUT
+    try:
+        scenes = resolve_scenes(options.preset, options.angles)
+        specs = []
+        for rid, scene, src in scenes:
+            scene = apply_resolution(scene, options.nodes)
+            proto = protocol_from_options(scene, options)
+            angle = wedge_angle_deg(scene)
+            specs.append(RunSpec(rid, scene, {"angle_deg": angle, "source": src,
+                                              "n_nodes": [b["n_nodes"] for b in
+                                                          scene["brushes"]],
+                                              "protocol": proto}, TASK))
+    except engine.SceneError as exc:
+        _err("invalid scene: " + "; ".join(str(p) for p in exc.problems))
+        return EXIT_BAD_INPUT
+    except StudyInputError as exc:
+        _err(str(exc))
+        return EXIT_BAD_INPUT
+    bad = validate_scenes([s.scene for s in specs])
+    if bad:
+        _err(bad)
+        return EXIT_BAD_INPUT
+    checks = []
+    if options.check_increment:
+        for s in specs:
+            pr = s.params["protocol"]
+            if pr["method"] != "quasi_static":
+                _err("--check-increment needs the quasi-static method: the dynamic method's "
+                     "steps are not split into increments")
+                return EXIT_BAD_INPUT
+            finer = dict(pr, qs_increments=2 * int(pr["qs_increments"]))
+            checks.append(RunSpec(s.run_id + INCREMENT_CHECK_SUFFIX, s.scene,
+                                  dict(s.params, protocol=finer), TASK))
+    for s in specs:
+        pr = s.params["protocol"]
+        print(f"{s.run_id}: {s.params['source']}; wedge {s.params['angle_deg']:g} deg, "
+              f"{pr['n_steps']} x {pr['step'] * 1e3:g} mm steps (a_m {pr['max_acceleration']:g}"
+              f" m/s^2, t_d {step_duration(pr['step'], pr['max_acceleration']) * 1e3:.1f} ms)"
+              f"{' and back' if pr['unload'] else ''}, nodes/bristle {s.params['n_nodes']}")
+    t0 = time.perf_counter()
+    try:
+        outcomes = run_many_from_args(specs + checks, out, options, desc="wedge runs")
+    except KeyboardInterrupt:
+        _err("cancelled: finished runs are kept; run the same command again to go on")
+        return EXIT_CANCELLED
+    wall = time.perf_counter() - t0
+    return write_wedge_outputs(out, specs, outcomes[:len(specs)], wall,
+                               increment_outcomes=outcomes[len(specs):])
+
+
+run = api.study_run("wedge", _run_study)
+
+
+# ----------------------------------------------------------------------------- outputs
+def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
+                        increment_outcomes=()) -> int:
+    from .plots import plot_force_depth
+
+    curves, rows, checks = [], [], {}
+    single = len(specs) == 1
+    for spec, o in zip(specs, outcomes):
+        if not o.ok:
+            continue
+        s = o.summary
+        angle = spec.params["angle_deg"]
+        label = f"{angle:g} deg" if angle is not None else spec.run_id
+        curves.append((label, s["depth_m"], s["force_N"], s["phase"]))
+        checks[spec.run_id] = curve_checks(s["depth_m"], s["force_N"], s["phase"])
+        checks[spec.run_id].update(hold_limit_hits=s["hold_limit_hits"], wall_s=o.wall_s,
+                                   cpu_s=s.get("cpu_s"), method=s.get("method"),
+                                   max_equilibrium_gap_N=s.get("max_equilibrium_gap_N"),
+                                   angle_deg=angle, sim_time_s=s["sim_time_s"],
+                                   steps=s["steps"], dt=s["dt"], n_nodes=s["n_nodes"],
+                                   local_damping=s.get("local_damping"))
+        for i in range(len(s["depth_m"])):
+            rows.append((spec.run_id, angle, s["depth_m"][i], s["force_N"][i], s["phase"][i],
+                         s["converged"][i]))
+        if not single:
+            write_force_depth_csv(out / f"force_depth_{safe_id(spec.run_id)}.csv",
+                                  s["depth_m"], s["force_N"], s["phase"])
+    done = [r for r in rows]
+    if single and done:
+        write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
+                              [r[3] for r in done], [r[4] for r in done])
+    elif done:
+        write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
+                              [r[3] for r in done], [r[4] for r in done],
+                              {"angle_deg": [f"{r[1]:g}" if r[1] is not None else ""
+                                             for r in done],
+                               "run_id": [r[0] for r in done]})
+    with open(out / "wedge_records.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run_id", "angle_deg", "depth_m", "force_N", "phase", "converged"])
+        for r in rows:
+            w.writerow([r[0], "" if r[1] is None else f"{r[1]:.6g}", f"{r[2]:.6g}",
+                        f"{r[3]:.9g}", r[4], int(bool(r[5]))])
+    if curves:
+        plot_force_depth(curves, out / "force_depth.png",
+                         "Wedge force against depth (hold-until-steady, seed 4.2)")
+    inc = {}
+    for spec, o, fine in zip(specs, outcomes, increment_outcomes):
+        if o.ok and fine.ok:
+            inc[spec.run_id] = increment_check(o.summary, fine.summary,
+                                               spec.params["protocol"]["threshold"])
+            inc[spec.run_id]["cpu_s"] = fine.summary.get("cpu_s")
+    write_outcomes(out / "outcomes.json", list(outcomes) + list(increment_outcomes))
+    summary = {
+        "study": "wedge", "wall_s": wall, "runs": len(specs),
+        "failed": [o.run_id for o in list(outcomes) + list(increment_outcomes) if not o.ok],
+        "method": METHOD_NOTES,
+        "checks": checks,
+        "protocols": {s.run_id: s.params["protocol"] for s in specs}}
+    if increment_outcomes:
+        summary["increment_check"] = inc
+    write_json_atomic(out / "study.json", summary)
+    print()
+    print(f"{'run':<22} {'angle':>6} {'peak F [N]':>11} {'unload<load':>11} "
+          f"{'hold limit':>10} {'wall':>9}")
+    for rid, c in checks.items():
+        print(f"{rid:<22} {c['angle_deg'] or 0:>6.4g} {c['peak_force_N']:>11.4g} "
+              f"{str(c.get('unload_below_load', '-')):>11} {c['hold_limit_hits']:>10} "
+              f"{c['wall_s']:>8.1f}s")
+    for rid, c in inc.items():
+        where = ("" if c["at_depth_m"] is None
+                 else f" at {c['at_depth_m'] * 1e3:g} mm ({c['at_phase']})")
+        print(f"{rid}: halving the increments changes the force by at most "
+              f"{c['max_rel_change']:.2%}{where}: "
+              f"{'converged' if c['converged'] else 'NOT converged'} within "
+              f"{c['tolerance']:.0%}")
+    print(f"study wall time {wall:.1f} s; outputs in {out}/ (force_depth.csv, "
+          f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
+    return report_failures(list(outcomes) + list(increment_outcomes))
+
+
+def write_force_depth_csv(path: Path, depths, forces, phases, extra: Optional[dict] = None
+                          ) -> None:
+    """``depth_m,force_N,phase`` (then the ``extra`` columns, each a list)."""
+    extra = extra or {}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["depth_m", "force_N", "phase", *extra])
+        for i, (dd, ff, ph) in enumerate(zip(depths, forces, phases)):
+            w.writerow([f"{dd:.6g}", f"{ff:.9g}", ph, *(extra[k][i] for k in extra)])
+    os.replace(tmp, path)
