@@ -75,7 +75,7 @@ def write_xdmf(h5_path: Union[str, Path], xdmf_path: Optional[Union[str, Path]] 
         wrote = False
         if "nodes/positions" in f and "bonds/nodes" in f:
             pos, bonds = f["nodes/positions"], f["bonds/nodes"]
-            n_nodes, n_bonds = pos.shape[1], bonds.shape[0]
+            n_bonds = bonds.shape[0]
             series = ET.SubElement(domain, "Grid", Name="bristles", GridType="Collection",
                                    CollectionType="Temporal")
             for i in range(n):
