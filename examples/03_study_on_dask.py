@@ -2,7 +2,7 @@
 =============================================
 
 The wedge study of seed 4.2 (``brush-studio study wedge``) through its typed Python API:
-``studio.studies.wedge.Options`` in, ``StudyResult`` out. Two wedges, 45 and 60 degrees (the
+the study registry's ``Options`` in (``get("wedge").options``), ``StudyResult`` out. Two wedges, 45 and 60 degrees (the
 presets ``wedge_45`` and ``wedge_60``), each pressed 2 mm into the brush at 3 nodes per
 bristle, one run per wedge. ``workers=2`` runs them at once on a local Dask cluster of two
 single-threaded worker processes (``scheduler="tcp://HOST:PORT"`` would use an existing
@@ -24,13 +24,14 @@ import csv
 import sys
 from pathlib import Path
 
-from studio.studies import wedge
+from studio.studies.registry import get
 
 
 def main():
     out_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "example_output/03_study_on_dask")
 
-    options = wedge.Options(
+    wedge = get("wedge")   # any study by its command name: .options (a dataclass), .run
+    options = wedge.options(
         angles="45,60",      # the presets wedge_45 and wedge_60
         depth_mm=2,          # full depth, in 1 mm steps
         nodes=3,             # nodes per bristle
