@@ -20,7 +20,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import _fmt_s, _one_line
+from .panels.common import NO_JOBS, _fmt_s, _one_line, job_of, set_job_choices
 from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
@@ -226,7 +226,7 @@ class StudiesTab:
             self.md_status = gui.add_markdown("No study started yet.")
             with gui.add_folder("Studies", expand_by_default=False):
                 self.md_list = gui.add_markdown("No studies yet.")
-                self.dd_list = gui.add_dropdown("study job", ("(none)",))
+                self.dd_list = gui.add_dropdown("study job", (NO_JOBS,))
                 self.bt_show = gui.add_button("Show selected study")
                 self.bt_show.on_click(lambda e: self._show_selected())
             with gui.add_folder("Study results", expand_by_default=True):
@@ -291,9 +291,9 @@ class StudiesTab:
             self.jobs.cancel(self.active, wait=0.0)
 
     def _show_selected(self) -> None:
-        v = self.dd_list.value
-        if v and v != "(none)":
-            self.show(v.split(" ", 1)[0])
+        job = job_of(self.dd_list.value)
+        if job is not None:
+            self.show(job)
 
     # ----------------------------------------------------------------- polling
     def poll(self) -> None:
@@ -309,12 +309,7 @@ class StudiesTab:
         if md != self._list_md:
             self._list_md = md
             self.md_list.content = md
-            current = self.dd_list.value
-            options = tuple(f"{j.id} {j.name} ({j.status})" for j in studies) or ("(none)",)
-            self.dd_list.options = options
-            for o in options:
-                if current and o.split(" ", 1)[0] == current.split(" ", 1)[0]:
-                    self.dd_list.value = o
+            set_job_choices(self.dd_list, studies, job_of(self.dd_list.value))
         job = self.active
         if job is None:
             return

@@ -8,7 +8,7 @@ import json
 from typing import Optional
 
 from . import run_cost as rcost
-from .common import _fmt_rate, _fmt_s, _md_escape
+from .common import NO_JOBS, _fmt_rate, _fmt_s, _md_escape, job_of, set_job_choices
 from .common import _one_line  # (the Runs list's rows)
 from .results import ResultFrames
 
@@ -32,7 +32,7 @@ class RunPanel:
             self.cb_follow = gui.add_checkbox("show the running job live", True)
             with gui.add_folder("Runs"):
                 self.md_runs = gui.add_markdown("No runs yet.")
-                self.dd_runs = gui.add_dropdown("run", ("(none)",))
+                self.dd_runs = gui.add_dropdown("run", (NO_JOBS,))
                 self.dd_runs.on_update(lambda e: self._show_run_detail())
                 self.md_run_detail = gui.add_markdown("", visible=False)
                 self.bt_load_run = gui.add_button("Load run for playback")
@@ -161,8 +161,7 @@ class RunPanel:
             self.jobs.cancel(job, wait=0.0)
 
     def _selected_job(self) -> Optional[str]:
-        v = self.dd_runs.value
-        return v.split(" ", 1)[0] if v and v != "(none)" else None
+        return job_of(self.dd_runs.value)
 
     def _on_load_run(self, event) -> None:
         job = self._selected_job()
@@ -186,13 +185,9 @@ class RunPanel:
         if md != self._runs_md:
             self._runs_md = md
             self.md_runs.content = md
-            options = tuple(f"{j.id} {j.name} ({j.status})" for j in jobs) or ("(none)",)
             current = getattr(self, "_select_run", None) or self._selected_job()
             self._select_run = None
-            self.dd_runs.options = options
-            for o in options:
-                if current is not None and o.startswith(current):
-                    self.dd_runs.value = o
+            set_job_choices(self.dd_runs, jobs, current)
             self._show_run_detail()
         job = self.active_job
         if job is None:
