@@ -20,7 +20,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import NO_JOBS, _fmt_s, _one_line, job_of, set_job_choices
+from .panels.common import NO_JOBS, _fmt_s, _one_line, follow_job, job_of, set_job_choices
 from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
@@ -313,22 +313,20 @@ class StudiesTab:
         job = self.active
         if job is None:
             return
-        info = self.jobs.get(job)
-        self.progress.value = 100.0 * float(info.progress or 0.0)
-        if info.status == "queued":
-            self.md_status.content = f"Study `{job}` queued (waiting for a worker)."
-        elif info.status == "running":
-            eta = study_eta(info)
-            self.md_status.content = (
-                f"Study `{job}` running: {100 * float(info.progress or 0):.0f} %" +
-                ("" if eta is None else f", about {_fmt_s(eta)} left") +
-                f" · {self.esc(info.message or '')} ({len(info.files)} files so far)")
-        else:
+        info = follow_job(self.jobs, job, self.progress, self.md_status, "Study",
+                          self._running_text)
+        if info is not None:  # it ended
             self.active = None
             self.bt_cancel.disabled = True
             self.md_status.content = (f"Study `{job}` **{info.status}**" + (
                 f": {self.esc(info.error.splitlines()[0])}" if info.error else "."))
             self.show(job)
+
+    def _running_text(self, info) -> str:
+        eta = study_eta(info)
+        return (f"{100 * float(info.progress or 0):.0f} %" +
+                ("" if eta is None else f", about {_fmt_s(eta)} left") +
+                f" · {self.esc(info.message or '')} ({len(info.files)} files so far)")
 
     # ----------------------------------------------------------------- results
     def show(self, job_id: str) -> None:

@@ -63,3 +63,19 @@ def set_job_choices(dropdown, jobs, keep: Optional[str]) -> None:
 def job_of(entry: Optional[str]) -> Optional[str]:
     """The job id a dropdown entry of :func:`set_job_choices` names; None for none."""
     return entry.split(" ", 1)[0] if entry and entry != NO_JOBS else None
+
+
+def follow_job(jobs, job_id: str, progress, md_status, what: str, running):
+    """One poll of the job a panel follows (its Run or Study): its progress into the bar
+    ``progress`` and, while it waits or runs, a status line into ``md_status`` (``what``:
+    "Job", "Study"; ``running(info)``: the text after "running: "). Returns None while it
+    waits or runs, its final state once it has ended (the panel then says how)."""
+    info = jobs.get(job_id)
+    progress.value = 100.0 * float(info.progress or 0.0)
+    if info.status == "queued":
+        md_status.content = f"{what} `{job_id}` queued (waiting for a worker)."
+    elif info.status == "running":
+        md_status.content = f"{what} `{job_id}` running: {running(info)}"
+    else:
+        return info
+    return None

@@ -8,9 +8,16 @@ import json
 from typing import Optional
 
 from . import run_cost as rcost
-from .common import NO_JOBS, _fmt_rate, _fmt_s, _md_escape, job_of, set_job_choices
+from .common import (NO_JOBS, _fmt_rate, _fmt_s, _md_escape, follow_job, job_of,
+                     set_job_choices)
 from .common import _one_line  # (the Runs list's rows)
 from .results import ResultFrames
+
+
+def _running_text(info) -> str:
+    """A running job's status after "running: ": simulated time, speed, ETA."""
+    return (f"t = {info.sim_time or 0:.4g} / {info.until or 0:g} s, "
+            f"{_fmt_rate(info.steps_per_s)} steps/s, ETA {_fmt_s(info.eta_s)}")
 
 
 class RunPanel:
@@ -192,15 +199,8 @@ class RunPanel:
         job = self.active_job
         if job is None:
             return
-        info = self.jobs.get(job)
-        self.progress.value = 100.0 * float(info.progress or 0.0)
-        if info.status == "queued":
-            self.md_status.content = f"Job `{job}` queued (waiting for a worker)."
-        elif info.status == "running":
-            self.md_status.content = (
-                f"Job `{job}` running: t = {info.sim_time or 0:.4g} / {info.until or 0:g} s, "
-                f"{_fmt_rate(info.steps_per_s)} steps/s, ETA {_fmt_s(info.eta_s)}")
-        else:
+        info = follow_job(self.jobs, job, self.progress, self.md_status, "Job", _running_text)
+        if info is not None:  # it ended
             self.active_job = None
             self.bt_cancel.disabled = True
             self.md_status.content = (f"Job `{job}` **{info.status}**" +
