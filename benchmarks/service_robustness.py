@@ -43,7 +43,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from conftest import TINY_SCENE  # noqa: E402  (the tests' tiny scene: one source)
+from conftest import TINY_SCENE, fill_disk, mount_tmpfs  # noqa: E402  (one source)
 
 FINAL = ("completed", "stopped", "failed", "cancelled")
 
@@ -228,15 +228,12 @@ def _count(values) -> dict:
 
 
 def case_disk_full(tmp: Path, args) -> str:
-    if os.geteuid() != 0:
-        return "skipped: mounting a tmpfs needs root (tests/server/test_server_storage.py " \
-               "covers it with a patched writer)"
     mnt = tmp / "tmpfs"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mnt)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        return f"skipped: cannot mount a tmpfs: {r.stderr.strip()}"
+    problem = mount_tmpfs(mnt)
+    if problem:
+        return f"skipped: {problem} (tests/server/test_server_storage.py covers a full disk " \
+               f"with a patched writer too)"
     server = None
     try:
         server = Server(mnt / "data", workers=1, args=("--min-free-mb", "0"))
@@ -244,13 +241,7 @@ def case_disk_full(tmp: Path, args) -> str:
                                  ).json()["id"]
         server.wait(run, until=("running",))
         filler = mnt / "filler"
-        try:
-            with open(filler, "wb") as f:
-                while True:
-                    f.write(b"\0" * 65536)
-                    f.flush()
-        except OSError:
-            pass
+        fill_disk(filler)
         info = server.wait(run, timeout=300)
         full = server.client.post("/api/runs", json=tiny(duration=0.002))
         degraded = server.client.get("/api/health").json()

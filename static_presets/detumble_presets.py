@@ -58,10 +58,15 @@ def _brush(silicone_brush: dict, base: dict, n_nodes: int) -> dict:
     return b
 
 
-def _scene(name, desc, target, brushes, axis, surface, controller_extra, materials, pairs,
-           duration, stop_fraction, omega0, tilt=0.0):
+def _scene(name, what, target, brushes, axis, surface, controller_extra, silicone,
+           phi_sil_sil, n_nodes, duration, stop_fraction, omega0, tilt=0.0):
     """The shared layout: ``axis`` the unit approach direction (target -> chaser),
-    ``surface`` the target's surface distance from its centre along it."""
+    ``surface`` the target's surface distance from its centre along it; ``what`` the
+    description's part about this target (the rest is the same for every preset)."""
+    desc = ("Seed chapter 5 ('Test brush in mission simulations', no figure: the thesis "
+            "recommends this simulation) and issue 15: a chaser detumbles " + what +
+            _common_text(brushes[0], n_nodes, duration, stop_fraction))
+    materials, pairs = _materials(silicone, phi_sil_sil)
     pos_gains, att_gains, inertia = _chaser_gains()
     a = CHASER["size"]
     brush = brushes[0]                                        # all of one design
@@ -157,9 +162,8 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
               "mass_properties": {"mass": mass, "inertia": [[i_trans, 0, 0], [0, i_trans, 0],
                                                             [0, 0, i_axis]]},
               "motion": {"type": "free"}, "angular_velocity": [0.0, 0.0, omega0]}
-    desc = (
-        "Seed chapter 5 ('Test brush in mission simulations', no figure: the thesis "
-        "recommends this simulation) and issue 15: a chaser detumbles a spent cylindrical "
+    what = (
+        "a spent cylindrical "
         f"upper stage with its brush. Target (target): an assumed kick-stage case of the "
         f"size of a Star-48-class motor, a thin-walled aluminium cylinder {2 * radius:g} m "
         f"in diameter and {length:g} m long (nozzle left out), {mass:g} kg, inertia "
@@ -167,11 +171,9 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
         f"(m (r^2/2 + l^2/12): the axis is the major axis, so the spin is stable), axis "
         f"along the orbit normal z, spinning at {omega0 / DEG:g} deg/s about it (all "
         f"assumptions); the brush rubs its side, the chaser radially above it (+x), the "
-        f"brush's 17-bristle rows along the stage's axis (scene rows 5, columns 17). "
-        + _common_text(brush, n_nodes, duration, stop_fraction))
-    materials, pairs = _materials(silicone, phi_sil_sil)
-    return _scene("detumble_upper_stage", desc, target, [brush], (1.0, 0.0, 0.0), radius, {},
-                  materials, pairs, duration, stop_fraction, omega0)
+        f"brush's 17-bristle rows along the stage's axis (scene rows 5, columns 17). ")
+    return _scene("detumble_upper_stage", what, target, [brush], (1.0, 0.0, 0.0), radius, {},
+                  silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)
 
 
 def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_angle):
@@ -211,7 +213,6 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         b.update(name=f"brush_{side}", rows=9, columns=5, tip_variance=tip_sd ** 2,
                  seed=1 if sign < 0 else 2)
         brushes.append(b)
-    brush = brushes[0]
     target = {"name": "target", "material": "aluminium",
               "shape": {"type": "box", "size": [bus, bus, bus]},
               "mass_properties": {"mass": mass, "center_of_mass": [0.0, com_y, 0.0],
@@ -219,9 +220,8 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
               "motion": {"type": "free"}, "angular_velocity": [0.0, 0.0, omega0],
               # the bus centre placed so that the centre of mass is at the origin
               "pose": {"position": [0.0, -com_y, 0.0]}}
-    desc = (
-        "Seed chapter 5 ('Test brush in mission simulations', no figure: the thesis "
-        "recommends this simulation) and issue 15: a chaser detumbles a box-shaped "
+    what = (
+        "a box-shaped "
         f"satellite with a solar panel. Target (target): an assumed {bus:g} m aluminium "
         f"bus of {bus_mass:g} kg (uniform) with one {panel[1]:g} x {panel[0]:g} m panel of "
         f"{panel_mass:g} kg ({panel[2] * 1e3:g} mm thick) out along +y from the bus's +y "
@@ -236,12 +236,10 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"{lever * 1e3:g} mm either side of the axis along x (so their pushes do not tilt "
         f"the target), tips scattered by {tip_sd * 1e3:g} mm (standard deviation in the "
         f"base plane, seeds 1 and 2: assumed manufacturing scatter; perfectly straight "
-        f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. "
-        + _common_text(brush, n_nodes, duration, stop_fraction))
-    materials, pairs = _materials(silicone, phi_sil_sil)
+        f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. ")
     # the chaser's centre: above the target's centre of mass (the body origin) on +z
-    return _scene("detumble_box_satellite", desc, target, brushes, (0.0, 0.0, 1.0), bus / 2,
-                  {}, materials, pairs, duration, stop_fraction, omega0)
+    return _scene("detumble_box_satellite", what, target, brushes, (0.0, 0.0, 1.0), bus / 2,
+                  {}, silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)
 
 
 def all_detumble(silicone, phi_sil_sil, seed_brush, quat_axis_angle) -> list[dict]:

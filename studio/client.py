@@ -139,7 +139,8 @@ class Client:
         try:
             while True:
                 info = self.get(run_id)
-                if info.get("kind") == "study":
+                study = info.get("kind") == "study"
+                if study:
                     if progress and bar is None:
                         bar = tqdm(total=1.0, desc=f"study {run_id}", dynamic_ncols=True,
                                    bar_format="{desc} {percentage:3.0f}%|{bar}| "
@@ -149,35 +150,30 @@ class Client:
                         bar.set_postfix_str(f"{info['status']}, {info.get('message') or ''}",
                                             refresh=False)
                         bar.refresh()
-                    if info["status"] in FINAL_STATUSES:
-                        return info
-                    if deadline is not None and time.monotonic() > deadline:
-                        raise TimeoutError(f"study {run_id} is still {info['status']} after "
-                                           f"{timeout} s")
-                    time.sleep(poll)
-                    continue
-                until = info.get("until")
-                if progress and bar is None and until:
-                    bar = tqdm(total=float(until), unit="s", desc=f"run {run_id}",
-                               dynamic_ncols=True,
-                               bar_format="{desc} {percentage:3.0f}%|{bar}| "
-                                          "t = {n:.4g}/{total:.4g} s [{elapsed}{postfix}]")
-                if bar is not None:
-                    sim = info.get("sim_time") or 0.0
-                    bar.n = min(float(sim), bar.total)
-                    rate, eta = info.get("steps_per_s"), info.get("eta_s")
-                    post = [info["status"]]
-                    if rate:
-                        post.append(f"{rate:,.0f} steps/s")
-                    if eta is not None and math.isfinite(eta) and info["status"] == "running":
-                        post.append(f"ETA {eta:.0f} s")
-                    bar.set_postfix_str(", ".join(post), refresh=False)
-                    bar.refresh()
+                else:
+                    until = info.get("until")
+                    if progress and bar is None and until:
+                        bar = tqdm(total=float(until), unit="s", desc=f"run {run_id}",
+                                   dynamic_ncols=True,
+                                   bar_format="{desc} {percentage:3.0f}%|{bar}| "
+                                              "t = {n:.4g}/{total:.4g} s [{elapsed}{postfix}]")
+                    if bar is not None:
+                        sim = info.get("sim_time") or 0.0
+                        bar.n = min(float(sim), bar.total)
+                        rate, eta = info.get("steps_per_s"), info.get("eta_s")
+                        post = [info["status"]]
+                        if rate:
+                            post.append(f"{rate:,.0f} steps/s")
+                        if eta is not None and math.isfinite(eta) and \
+                                info["status"] == "running":
+                            post.append(f"ETA {eta:.0f} s")
+                        bar.set_postfix_str(", ".join(post), refresh=False)
+                        bar.refresh()
                 if info["status"] in FINAL_STATUSES:
                     return info
                 if deadline is not None and time.monotonic() > deadline:
-                    raise TimeoutError(f"run {run_id} is still {info['status']} after "
-                                       f"{timeout} s")
+                    raise TimeoutError(f"{'study' if study else 'run'} {run_id} is still "
+                                       f"{info['status']} after {timeout} s")
                 time.sleep(poll)
         finally:
             if bar is not None:

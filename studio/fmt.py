@@ -1,4 +1,5 @@
-"""Durations and rates as people read them, the same in the terminal and in the studio."""
+"""Durations, rates and lengths as people read them, the same in the terminal and in the
+studio."""
 from __future__ import annotations
 
 import math
@@ -28,3 +29,13 @@ def fmt_rate(x) -> str:
         if abs(x) >= div:
             return f"{x / div:.3g}{suffix}"
     return f"{x:.3g}"
+
+
+def fmt_length(metres: float, number=lambda v: f"{v:g}") -> str:
+    """A length in the unit a person reads it best in: ``5 km`` from 1 km, ``2 m`` from 1 m,
+    else ``0.5 mm``; ``number`` writes the value in that unit (default ``:g``)."""
+    if metres >= 1000.0:
+        return f"{number(metres / 1000.0)} km"
+    if metres >= 1.0:
+        return f"{number(metres)} m"
+    return f"{number(metres * 1e3)} mm"

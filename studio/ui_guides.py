@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from .fmt import fmt_length
+
 AXIS_COLORS = ((220, 40, 40), (40, 170, 40), (40, 90, 230))   # x red, y green, z blue
 BAR_COLOR = (30, 30, 30)
 
@@ -28,11 +30,7 @@ def round_length(x: float) -> float:
 
 def length_text(mm: float) -> str:
     """A scale bar's label: 10 mm, 0.5 mm, 2 m, 5 km."""
-    if mm >= 1e6:
-        return f"{mm / 1e6:g} km"
-    if mm >= 1e3:
-        return f"{mm / 1e3:g} m"
-    return f"{mm:g} mm"
+    return fmt_length(mm / 1e3)
 
 
 def camera_for(lo, hi) -> tuple[np.ndarray, np.ndarray]:

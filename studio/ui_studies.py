@@ -20,7 +20,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import _fmt_s, _one_line
+from .panels.common import NO_JOBS, _fmt_s, _one_line, follow_job, job_of, set_job_choices
 from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
@@ -226,7 +226,7 @@ class StudiesTab:
             self.md_status = gui.add_markdown("No study started yet.")
             with gui.add_folder("Studies", expand_by_default=False):
                 self.md_list = gui.add_markdown("No studies yet.")
-                self.dd_list = gui.add_dropdown("study job", ("(none)",))
+                self.dd_list = gui.add_dropdown("study job", (NO_JOBS,))
                 self.bt_show = gui.add_button("Show selected study")
                 self.bt_show.on_click(lambda e: self._show_selected())
             with gui.add_folder("Study results", expand_by_default=True):
@@ -291,9 +291,9 @@ class StudiesTab:
             self.jobs.cancel(self.active, wait=0.0)
 
     def _show_selected(self) -> None:
-        v = self.dd_list.value
-        if v and v != "(none)":
-            self.show(v.split(" ", 1)[0])
+        job = job_of(self.dd_list.value)
+        if job is not None:
+            self.show(job)
 
     # ----------------------------------------------------------------- polling
     def poll(self) -> None:
@@ -309,31 +309,24 @@ class StudiesTab:
         if md != self._list_md:
             self._list_md = md
             self.md_list.content = md
-            current = self.dd_list.value
-            options = tuple(f"{j.id} {j.name} ({j.status})" for j in studies) or ("(none)",)
-            self.dd_list.options = options
-            for o in options:
-                if current and o.split(" ", 1)[0] == current.split(" ", 1)[0]:
-                    self.dd_list.value = o
+            set_job_choices(self.dd_list, studies, job_of(self.dd_list.value))
         job = self.active
         if job is None:
             return
-        info = self.jobs.get(job)
-        self.progress.value = 100.0 * float(info.progress or 0.0)
-        if info.status == "queued":
-            self.md_status.content = f"Study `{job}` queued (waiting for a worker)."
-        elif info.status == "running":
-            eta = study_eta(info)
-            self.md_status.content = (
-                f"Study `{job}` running: {100 * float(info.progress or 0):.0f} %" +
-                ("" if eta is None else f", about {_fmt_s(eta)} left") +
-                f" · {self.esc(info.message or '')} ({len(info.files)} files so far)")
-        else:
+        info = follow_job(self.jobs, job, self.progress, self.md_status, "Study",
+                          self._running_text)
+        if info is not None:  # it ended
             self.active = None
             self.bt_cancel.disabled = True
             self.md_status.content = (f"Study `{job}` **{info.status}**" + (
                 f": {self.esc(info.error.splitlines()[0])}" if info.error else "."))
             self.show(job)
+
+    def _running_text(self, info) -> str:
+        eta = study_eta(info)
+        return (f"{100 * float(info.progress or 0):.0f} %" +
+                ("" if eta is None else f", about {_fmt_s(eta)} left") +
+                f" · {self.esc(info.message or '')} ({len(info.files)} files so far)")
 
     # ----------------------------------------------------------------- results
     def show(self, job_id: str) -> None:

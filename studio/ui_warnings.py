@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from typing import Optional
 
+from .fmt import fmt_length
+
 #: a bristle longer than this is out of scale for a brush end-effector (the seed's longest
 #: is its 0.4 m steel rod)
 MAX_PLAUSIBLE_LENGTH = 1.0          # m
@@ -28,12 +30,8 @@ def _num(x: float) -> str:
 
 
 def _mm(x: float) -> str:
-    """A length in the unit a person reads it best in."""
-    if x >= 1000.0:
-        return f"{_num(x / 1000.0)} km"
-    if x >= 1.0:
-        return f"{_num(x)} m"
-    return f"{_num(x * 1e3)} mm"
+    """A length (m) in the unit a person reads it best in, three significant digits."""
+    return fmt_length(x, _num)
 
 
 def body_size(body: dict) -> Optional[float]:

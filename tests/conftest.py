@@ -3,15 +3,18 @@
 ``demo_scene_dict``: the embedded default scene (``studio/data/demo_scene.json``) as a dict.
 ``tiny_scene``: a factory of small, fast scenes (a 2 x 2 brush pressed by a box) as dicts;
 tests change what they need and write them under pytest's ``tmp_path``.
+``tiny_tmpfs``, ``fill_disk``: a 4 MiB tmpfs and a way to fill it (a full disk, for real).
 """
 from __future__ import annotations
 
 import copy
 import json
 import os
+import subprocess
 import sys
 from importlib.resources import files
 from pathlib import Path
+from typing import Optional
 
 # CI machines have 2 cores; numba's thread pool must not oversubscribe them. Set before any
 # test imports numba (this file is imported first).
@@ -95,6 +98,50 @@ def write_scene(tmp_path):
         return path
 
     return write
+
+
+
+def mount_tmpfs(mnt: Path, size: str = "4m") -> Optional[str]:
+    """Mount a tmpfs of ``size`` on the folder ``mnt``: None, or why it could not be (not
+    root, no mount). Unmount with ``umount -l``. The storage tests and
+    benchmarks/service_robustness.py fill one to reproduce a full disk."""
+    if os.geteuid() != 0:
+        return "mounting a tmpfs needs root"
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mnt)],
+                       capture_output=True, text=True)
+    return None if r.returncode == 0 else f"cannot mount a tmpfs here: {r.stderr.strip()}"
+
+
+def fill_disk(path: Path) -> None:
+    """Write ``path`` until its disk is full (it may be full already): 64 KiB blocks, then
+    the last partial blocks 512 bytes at a time."""
+    for block in (65536, 512):
+        try:
+            with open(path, "ab") as f:
+                while True:
+                    f.write(b"\0" * block)
+                    f.flush()
+        except OSError:
+            pass
+
+
+@pytest.fixture
+def tiny_tmpfs(tmp_path):
+    """A 4 MiB tmpfs (issue 13's full-disk reproduction); skipped where it cannot be
+    mounted."""
+    mnt = tmp_path / "tmpfs"
+    mnt.mkdir()
+    problem = mount_tmpfs(mnt)
+    if problem:
+        pytest.skip(problem)
+    yield mnt
+    subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.fixture(name="fill_disk")
+def _fill_disk_fixture():
+    """:func:`fill_disk` for tests (a test file cannot import this conftest by name)."""
+    return fill_disk
 
 
 def pytest_terminal_summary(terminalreporter):

@@ -1,10 +1,10 @@
 """The job manager: a bounded pool of worker processes, a FIFO queue and the job table.
 
-One monitor thread hands queued jobs to idle workers (oldest first), receives their progress
-and results through a pipe per worker and writes them to the :class:`~.store.JobStore`;
-enforces cancels (a worker that does not stop within the grace period is terminated);
-notices dead workers through their process sentinels (their job fails with the reason) and
-starts new ones.
+This file is what callers ask for: submit a scene or a study (checked against the limits,
+the queue and the storage quota), cancel, purge, wait, read a job's state and files, health.
+One monitor thread hands queued jobs to idle workers, receives their progress and results and
+notices dead workers (:mod:`.monitor`); job states are written through a
+:class:`~.writes.StateWriter`, which keeps what a full disk refused and writes it again.
 """
 from __future__ import annotations
 
@@ -12,10 +12,8 @@ import json
 import os
 import shutil
 import sqlite3
-import sys
 import threading
 import time
-import traceback
 import uuid
 from pathlib import Path
 from typing import Optional, Union
@@ -26,22 +24,22 @@ from ..studies.api import study_files
 from ..studies.registry import make_options, options_to_dict
 from .limits import LimitError, Limits, check_cost, planned_runs
 from .meshes import DEFAULT_MAX_TRIANGLES, MeshStore
+from .monitor import WorkerMonitor
 from .quota import StorageQuota
-from .store import (FINAL_STATUSES, JobInfo, JobStore, StorageError, jsonable, storage_reason)
-from .worker import WorkerHandle, cpu_count, describe_exit, finalize_killed_result
+from .store import JobInfo, JobStore, StorageError, jsonable, storage_reason
+from .worker import WorkerHandle, cpu_count
+from .writes import StateWriter
 
 #: below this much free space in the data folder, submits are refused (507) and health says
 #: ``degraded``: a run's files and the job database need room to record even a failure
 DEFAULT_MIN_FREE_BYTES = 16 * 1024 * 1024
-# a killed worker's result file up to this size is finalized before its job is reported
-FINALIZE_INLINE_BYTES = 64 * 1024 * 1024
 
 
 class _DuplicateKey(Exception):
     """A job with this idempotency key was stored meanwhile."""
 
 
-class JobManager:
+class JobManager(WorkerMonitor):
     """Bounded pool of worker processes, FIFO queue, state in ``data_dir/jobs.sqlite``.
 
     ``workers``: pool size (default one per core). ``cancel_grace_s``: how long a worker may
@@ -78,18 +76,14 @@ class JobManager:
         self.scheduler = scheduler  # study jobs' Dask scheduler (None: one local worker)
         self.study_cancel_grace_s = float(study_cancel_grace_s)
 
-        self.min_free_bytes = int(min_free_bytes)
         self.limits = limits if limits is not None else Limits()
-        # storage trouble seen last (None: the last write succeeded), and the final states of
-        # jobs that could not be written yet (retried by the monitor until they are)
-        self._storage_problem: Optional[str] = None
-        self._pending_final: dict[str, dict] = {}
         self._monitor_problem: Optional[str] = None
 
         self._lock_file = self._take_folder_lock()
         self._store = JobStore(self.data_dir, self.runs_dir)
         # the database connection and the worker table share one lock
         self._lock, self._changed = self._store.lock, self._store.changed
+        self._writes = StateWriter(self._store, self.data_dir, min_free_bytes)
         self._meshes = MeshStore(self.meshes_dir, self._store, self.max_triangles)
         self.quota = StorageQuota([self.runs_dir, self.meshes_dir],
                                   self.limits.max_storage_bytes)
@@ -108,6 +102,11 @@ class JobManager:
     @property
     def _db(self):
         return self._store.db
+
+    @property
+    def min_free_bytes(self) -> int:
+        """Below this much free space in the data folder, submits are refused."""
+        return self._writes.min_free_bytes
 
     # ------------------------------------------------------------------ public API
     def submit(self, scene, name: Optional[str] = None, *, allow_files: bool = True,
@@ -230,27 +229,19 @@ class JobManager:
         except (OSError, sqlite3.Error) as exc:
             shutil.rmtree(run_dir, ignore_errors=True)
             reason = storage_reason(exc)
-            self._storage_failed(reason)
+            self._writes.failed(reason)
             raise StorageError(f"the job could not be stored in {self.data_dir}: "
                                f"{reason}") from exc
-        self._storage_ok()
+        self._writes.ok()
         self._wake()
 
     def check_free_space(self) -> None:
         """:class:`StorageError` when the data folder has less than ``min_free_bytes``
         free."""
-        free = self.free_bytes()
-        if free is not None and free < self.min_free_bytes:
-            reason = (f"only {free / 2**20:.1f} MiB free in {self.data_dir} (at least "
-                      f"{self.min_free_bytes / 2**20:.0f} MiB are needed to run jobs)")
-            self._storage_failed(reason)
-            raise StorageError(reason)
+        self._writes.check_free_space()
 
     def free_bytes(self) -> Optional[int]:
-        try:
-            return shutil.disk_usage(self.data_dir).free
-        except OSError:
-            return None
+        return self._writes.free_bytes()
 
     def health(self) -> dict:
         """``{"status": "ok" | "degraded", "problems": [...]}``: degraded while workers are
@@ -259,8 +250,8 @@ class JobManager:
         problems = []
         with self._lock:
             alive = sum(1 for w in self._workers if w.process.is_alive())
-            pending = sorted(self._pending_final)
-            storage = self._storage_problem
+            pending = sorted(self._writes.pending)
+            storage = self._writes.problem
             monitor = self._monitor_problem
         if not self._monitor.is_alive() and not self._closing:
             problems.append("the job monitor thread has stopped: no job will start")
@@ -283,42 +274,6 @@ class JobManager:
                 "free_bytes": free, "used_bytes": self.quota.used_bytes(),
                 "quota_bytes": self.quota.max_bytes}
 
-    def _storage_failed(self, reason: str) -> None:
-        with self._lock:
-            self._storage_problem = reason
-
-    def _storage_ok(self) -> None:
-        with self._lock:
-            self._storage_problem = None
-
-    def _update(self, job_id: str, **values) -> bool:
-        """Write a job's state; on a storage error note it (health) and return False."""
-        try:
-            self._store.update(job_id, **values)
-        except StorageError as exc:
-            self._storage_failed(str(exc))
-            return False
-        if self._storage_problem is not None and not self._pending_final:
-            self._storage_ok()
-        return True
-
-    def _finish(self, job_id: str, **values) -> None:
-        """Write a job's final state; if storage fails, keep it and retry from the monitor
-        until it is written (the job is reported with it meanwhile)."""
-        if not self._update(job_id, **values):
-            with self._lock:
-                self._pending_final[job_id] = values
-
-    def _flush_pending(self) -> None:
-        with self._lock:
-            pending = list(self._pending_final.items())
-        for job_id, values in pending:
-            if self._update(job_id, **values):
-                with self._lock:
-                    self._pending_final.pop(job_id, None)
-        if pending and not self._pending_final:
-            self._storage_ok()
-
     def study_dir(self, job_id: str) -> Path:
         """A study job's output folder (KeyError if unknown or not a study)."""
         info = self.get(job_id)
@@ -339,24 +294,13 @@ class JobManager:
 
     def get(self, job_id: str) -> JobInfo:
         """The job's state; KeyError if there is no such job."""
-        return self._overlay(self._store.get(job_id))
+        return self._writes.overlay(self._store.get(job_id))
 
     def list(self, status: Optional[str] = None, limit: Optional[int] = None,
              kind: Optional[str] = None) -> list[JobInfo]:
         """All jobs (or those with ``status``, of ``kind`` "run" or "study"), newest
         first."""
-        return [self._overlay(i) for i in self._store.list(status, limit, kind)]
-
-    def _overlay(self, info: JobInfo) -> JobInfo:
-        """A job whose final state could not be written yet is shown with it."""
-        with self._lock:
-            values = self._pending_final.get(info.id)
-        if not values:
-            return info
-        import dataclasses
-
-        known = {f.name for f in dataclasses.fields(JobInfo)}
-        return dataclasses.replace(info, **{k: v for k, v in values.items() if k in known})
+        return [self._writes.overlay(i) for i in self._store.list(status, limit, kind)]
 
     def cancel(self, job_id: str, wait: float = 1.5) -> JobInfo:
         """Cancel a queued or running job (a finished one is left as it is). A running job's
@@ -370,7 +314,7 @@ class JobManager:
             return self._cancel(job_id, now, wait)
         except sqlite3.Error as exc:
             reason = f"the job database could not be written: {storage_reason(exc)}"
-            self._storage_failed(reason)
+            self._writes.failed(reason)
             raise StorageError(reason) from exc
 
     def _cancel(self, job_id: str, now: float, wait: float) -> JobInfo:
@@ -413,7 +357,7 @@ class JobManager:
             shutil.rmtree(folder, ignore_errors=False) if folder.exists() else None
             with self._lock:
                 self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
-                self._pending_final.pop(job_id, None)
+                self._writes.forget(job_id)
                 self._changed.notify_all()
         except (OSError, sqlite3.Error) as exc:
             raise StorageError(f"job {job_id} could not be purged: "
@@ -509,46 +453,7 @@ class JobManager:
         f.flush()
         return f
 
-    def _wake(self) -> None:
-        try:
-            os.write(self._wake_w, b"x")
-        except (BlockingIOError, OSError):
-            pass
-
-    # ------------------------------------------------------------------ monitor thread
-    def _monitor_loop(self) -> None:
-        from multiprocessing.connection import wait as mp_wait
-
-        try:
-            while True:
-                with self._lock:
-                    closing = self._closing
-                if closing:
-                    break
-                # each step on its own: an error in one (a full disk, a worker that cannot
-                # start) is reported in health and retried, and never stops the others
-                for step in (self._flush_pending, self._keep_pool, self._dispatch,
-                             self._enforce_cancels, self._retain):
-                    self._guarded(step)
-                with self._lock:
-                    workers = list(self._workers)
-                waitables = [self._wake_r]
-                for w in workers:
-                    waitables += [w.conn, w.process.sentinel]
-                ready = mp_wait(waitables, timeout=0.5)
-                if self._wake_r in ready:
-                    try:
-                        os.read(self._wake_r, 4096)
-                    except OSError:
-                        pass
-                for w in workers:
-                    if w.conn in ready:
-                        self._guarded(self._drain, w)
-                    if w.process.sentinel in ready:
-                        self._guarded(self._on_death, w)
-        finally:
-            self._shutdown_workers()
-
+    # ------------------------------------------------------------------ retention
     def _retain(self) -> None:
         """Purge finished jobs older than ``limits.keep_days`` (checked once a minute)."""
         days = self.limits.keep_days
@@ -563,243 +468,3 @@ class JobManager:
                 "'cancelled') AND finished IS NOT NULL AND finished < ?", (cutoff,)).fetchall()
         for (job_id,) in rows:
             self.purge(job_id)
-
-    def _guarded(self, step, *args) -> None:
-        """Run one step of the monitor loop; an exception is printed once per kind, shown
-        by :meth:`health` and does not end the loop (a pause keeps it from spinning)."""
-        try:
-            step(*args)
-        except Exception as exc:
-            reason = f"{type(exc).__name__}: {exc}"
-            if self._monitor_problem != reason:
-                traceback.print_exc()
-            with self._lock:
-                self._monitor_problem = reason
-            time.sleep(0.2)
-        else:
-            if self._monitor_problem is not None and step == self._dispatch:
-                with self._lock:
-                    self._monitor_problem = None
-
-    def _keep_pool(self) -> None:
-        with self._lock:
-            missing = self.n_workers - len(self._workers)
-        if missing <= 0 or time.monotonic() < self._respawn_after:
-            return
-        for _ in range(missing):
-            try:
-                w = WorkerHandle(self._ctx, self.threads_per_worker)
-            except OSError as exc:  # no memory, no file descriptors: try again later
-                self._respawn_after = time.monotonic() + 2.0
-                raise RuntimeError(f"a worker process could not be started: "
-                                   f"{storage_reason(exc)}") from exc
-            with self._lock:
-                self._workers.append(w)
-
-    def _dispatch(self) -> None:
-        with self._lock:
-            idle = [w for w in self._workers if w.ready and w.job_id is None]
-        for w in idle:
-            with self._lock:
-                row = self._db.execute(
-                    "SELECT seq, id, scene, kind, study, argv, resolved FROM jobs WHERE "
-                    "status = 'queued' ORDER BY seq LIMIT 1").fetchone()
-                if row is None:
-                    return
-                seq, job_id, scene_json, kind, study, argv, resolved = row
-                try:
-                    cur = self._db.execute(
-                        "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
-                        "WHERE id = ? AND status = 'queued'", (time.time(), w.pid, job_id))
-                except sqlite3.Error as exc:  # the job stays queued; tried again next turn
-                    reason = f"the job database could not be written: {storage_reason(exc)}"
-                    self._storage_failed(reason)
-                    raise StorageError(reason) from exc
-                if not cur.rowcount:
-                    continue
-                w.job_id, w.seq, w.cancel_at = job_id, seq, None
-                w.started_at, w.over_limit = time.monotonic(), None
-                w.grace = self.study_cancel_grace_s if kind == "study" else \
-                    self.cancel_grace_s
-                self._changed.notify_all()
-            try:
-                if kind == "study":
-                    out = self.runs_dir / job_id / "study"
-                    out.mkdir(parents=True, exist_ok=True)
-                    argv = json.loads(argv or "[]") + ["--output", str(out)]
-                    argv += ["--scheduler", self.scheduler] if self.scheduler else \
-                        ["--workers", "1"]
-                    msg = ("study", seq, job_id, study,
-                           self._study_options(job_id, study, resolved), argv, str(out))
-                else:
-                    h5 = self.runs_dir / job_id / "result.h5"
-                    h5.parent.mkdir(parents=True, exist_ok=True)
-                    msg = ("run", seq, job_id, scene_json, str(h5))
-            except Exception as exc:  # its folder cannot be written, its options are gone
-                with self._lock:
-                    w.job_id = w.seq = w.cancel_at = None
-                self._finish(job_id, status="failed", finished=time.time(), eta_s=None,
-                             error=f"the job could not be started: {storage_reason(exc)}")
-                continue
-            try:
-                w.conn.send(msg)
-            except (OSError, ValueError):
-                pass  # the worker died: its sentinel reports it and fails the job
-
-    def _study_options(self, job_id: str, study: str, resolved: Optional[str]) -> dict:
-        """A study job's typed options as data, run on this manager's scheduler (or one
-        worker in the job's process). A job queued by an older version has none stored:
-        they are made again from the options it was submitted with."""
-
-        if resolved:
-            data = json.loads(resolved)
-        else:
-            data = options_to_dict(make_options(study, self.get(job_id).options,
-                                                designs_dir=self.data_dir / "designs")[0])
-        data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
-        return data
-
-    def _drain(self, w: WorkerHandle) -> None:
-        while True:
-            try:
-                if not w.conn.poll():
-                    return
-                msg = w.conn.recv()
-            except (EOFError, OSError):
-                return
-            self._handle(w, msg)
-
-    def _handle(self, w: WorkerHandle, msg) -> None:
-        kind = msg[0]
-        if kind == "ready":
-            w.ready = True
-            w.numba_threads = msg[2]
-            self._start_failures = 0
-            return
-        job_id, data = msg[1], msg[2]
-        if job_id != w.job_id:
-            return
-        if kind == "built":
-            self._update(job_id, dt=data["dt"], dt_limited_by=str(data["dt_limited_by"]),
-                         until=data["until"], sim_time=data["sim_time"],
-                         assembled=data["assembled"], warnings=data["warnings"])
-        elif kind == "study_progress":
-            self._update(job_id, progress=min(max(float(data["progress"]), 0.0), 1.0),
-                         message=str(data.get("message") or "")[:300])
-        elif kind == "progress":
-            self._update(job_id, sim_time=data["sim_time"], until=data["until"],
-                         progress=min(max(float(data["progress"]), 0.0), 1.0),
-                         steps_per_s=data["steps_per_s"], eta_s=data["eta_s"])
-        elif kind == "done":
-            summary = data["summary"] or {}
-            status = data["status"] if data["status"] in FINAL_STATUSES else "failed"
-            error = data["error"]
-            if status == "cancelled" and error is None:
-                error = ("interrupted: the job manager was closed" if self._closing
-                         else "cancelled")
-            if w.over_limit and status == "cancelled":
-                status, error = "failed", w.over_limit
-            values = dict(status=status, finished=data["finished"], summary=summary,
-                          stages=summary.get("stages") or {}, error=error, eta_s=0.0
-                          if status in ("completed", "stopped") else None)
-            if status in ("completed", "stopped"):
-                values["progress"] = 1.0
-            if isinstance(summary.get("time"), (int, float)):
-                values["sim_time"] = float(summary["time"])
-            if summary.get("warnings"):
-                values["warnings"] = list(self.get(job_id).warnings) + [
-                    x for x in summary["warnings"] if x not in self.get(job_id).warnings]
-            with self._lock:
-                w.job_id = w.seq = w.cancel_at = None
-            self._finish(job_id, **values)
-
-    def _on_death(self, w: WorkerHandle) -> None:
-        self._drain(w)  # what it sent before dying
-        w.process.join(1.0)
-        code = w.process.exitcode
-        with self._lock:
-            if w in self._workers:
-                self._workers.remove(w)
-            job_id = w.job_id
-            w.job_id = w.seq = None
-        if job_id is not None:
-            cancel_requested = w.cancel_at is not None
-            reason = describe_exit(code)
-            if w.over_limit:
-                status, error = "failed", w.over_limit
-            elif cancel_requested:
-                status, error = "cancelled", (f"cancelled: the worker process (pid {w.pid}) "
-                                              f"did not stop in time and was ended ({reason})")
-            else:
-                status, error = "failed", (f"the worker process (pid {w.pid}) died while "
-                                           f"running this job ({reason}); the result file "
-                                           f"keeps the frames recorded before")
-            # its result file: from "running" and open-for-writing to the job's status (a
-            # copy of the file: before the job is reported finished when it is small, so
-            # that a client downloading it then gets the final file; in the background
-            # when it is large, not to hold the dispatcher)
-            h5 = self.runs_dir / job_id / "result.h5"
-            try:
-                size = h5.stat().st_size
-            except OSError:
-                size = None
-            if size is not None and size <= FINALIZE_INLINE_BYTES:
-                finalize_killed_result(h5, status, error)
-            elif size is not None:
-                threading.Thread(target=finalize_killed_result, args=(h5, status, error),
-                                 name="finalize-result", daemon=True).start()
-            self._finish(job_id, status=status, finished=time.time(), error=error, eta_s=None)
-        if not w.ready:  # died while starting: say so, and do not respawn in a tight loop
-            self._start_failures += 1
-            delay = min(2.0 * 2 ** (self._start_failures - 1), 60.0)
-            self._respawn_after = time.monotonic() + delay
-            if self._start_failures in (1, 3, 10):
-                print(f"brush-studio jobs: a worker process failed to start ({describe_exit(code)})"
-                      f"; retrying in {delay:.0f} s (a script creating a JobManager must do so "
-                      f"under `if __name__ == '__main__':`)", file=sys.stderr)
-        else:
-            self._start_failures = 0
-        try:
-            w.conn.close()
-        except OSError:
-            pass
-
-    def _enforce_cancels(self) -> None:
-        now = time.monotonic()
-        limit = self.limits.max_job_seconds
-        with self._lock:
-            if limit is not None:
-                for w in self._workers:
-                    if w.job_id is not None and w.cancel_at is None and w.started_at is not \
-                            None and now - w.started_at > limit and w.seq is not None:
-                        w.over_limit = (f"stopped: the job ran longer than this server's "
-                                        f"wall-time limit of {limit:g} s (--max-job-seconds); "
-                                        f"the result file keeps the frames recorded before")
-                        w.cancel_seq.value = w.seq
-                        w.cancel_at = now
-            late = [w for w in self._workers if w.job_id is not None
-                    and w.cancel_at is not None and now - w.cancel_at > w.grace]
-        for w in late:
-            w.process.terminate()  # its sentinel fires; _on_death marks the job cancelled
-
-    def _shutdown_workers(self) -> None:
-        with self._lock:
-            workers = list(self._workers)
-        # a study closes its Dask cluster when cancelled: give it longer than a run
-        studies = any(w.job_id is not None and w.grace > self.cancel_grace_s for w in workers)
-        deadline = time.monotonic() + (20.0 if studies else 5.0)
-        # running jobs were asked to cancel: let them close their files
-        for w in workers:
-            while w.job_id is not None and w.process.is_alive() and \
-                    time.monotonic() < deadline:
-                if w.conn.poll(0.1):
-                    self._drain(w)
-        for w in workers:
-            job_id = w.job_id
-            w.stop()
-            if job_id is not None:
-                self._finish(job_id, status="cancelled", finished=time.time(),
-                             error="interrupted: the job manager was closed while this job "
-                                   "ran")
-        with self._lock:
-            self._workers.clear()

@@ -8,9 +8,16 @@ import json
 from typing import Optional
 
 from . import run_cost as rcost
-from .common import _fmt_rate, _fmt_s, _md_escape
+from .common import (NO_JOBS, _fmt_rate, _fmt_s, _md_escape, follow_job, job_of,
+                     set_job_choices)
 from .common import _one_line  # (the Runs list's rows)
 from .results import ResultFrames
+
+
+def _running_text(info) -> str:
+    """A running job's status after "running: ": simulated time, speed, ETA."""
+    return (f"t = {info.sim_time or 0:.4g} / {info.until or 0:g} s, "
+            f"{_fmt_rate(info.steps_per_s)} steps/s, ETA {_fmt_s(info.eta_s)}")
 
 
 class RunPanel:
@@ -32,7 +39,7 @@ class RunPanel:
             self.cb_follow = gui.add_checkbox("show the running job live", True)
             with gui.add_folder("Runs"):
                 self.md_runs = gui.add_markdown("No runs yet.")
-                self.dd_runs = gui.add_dropdown("run", ("(none)",))
+                self.dd_runs = gui.add_dropdown("run", (NO_JOBS,))
                 self.dd_runs.on_update(lambda e: self._show_run_detail())
                 self.md_run_detail = gui.add_markdown("", visible=False)
                 self.bt_load_run = gui.add_button("Load run for playback")
@@ -161,8 +168,7 @@ class RunPanel:
             self.jobs.cancel(job, wait=0.0)
 
     def _selected_job(self) -> Optional[str]:
-        v = self.dd_runs.value
-        return v.split(" ", 1)[0] if v and v != "(none)" else None
+        return job_of(self.dd_runs.value)
 
     def _on_load_run(self, event) -> None:
         job = self._selected_job()
@@ -186,26 +192,15 @@ class RunPanel:
         if md != self._runs_md:
             self._runs_md = md
             self.md_runs.content = md
-            options = tuple(f"{j.id} {j.name} ({j.status})" for j in jobs) or ("(none)",)
             current = getattr(self, "_select_run", None) or self._selected_job()
             self._select_run = None
-            self.dd_runs.options = options
-            for o in options:
-                if current is not None and o.startswith(current):
-                    self.dd_runs.value = o
+            set_job_choices(self.dd_runs, jobs, current)
             self._show_run_detail()
         job = self.active_job
         if job is None:
             return
-        info = self.jobs.get(job)
-        self.progress.value = 100.0 * float(info.progress or 0.0)
-        if info.status == "queued":
-            self.md_status.content = f"Job `{job}` queued (waiting for a worker)."
-        elif info.status == "running":
-            self.md_status.content = (
-                f"Job `{job}` running: t = {info.sim_time or 0:.4g} / {info.until or 0:g} s, "
-                f"{_fmt_rate(info.steps_per_s)} steps/s, ETA {_fmt_s(info.eta_s)}")
-        else:
+        info = follow_job(self.jobs, job, self.progress, self.md_status, "Job", _running_text)
+        if info is not None:  # it ended
             self.active_job = None
             self.bt_cancel.disabled = True
             self.md_status.content = (f"Job `{job}` **{info.status}**" +

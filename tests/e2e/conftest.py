@@ -228,6 +228,21 @@ def upload(page, path, accept: str = "application/json") -> None:
     page.locator(f'input[type=file][accept="{accept}"]').set_input_files(str(path))
 
 
+
+def run_to_playback(page, studio: StudioProcess, scene: dict, folder: Path) -> dict:
+    """Upload ``scene`` (written to ``folder``), start a run of it on the Run tab and wait
+    for the finished run in playback (the worker's first run compiles the engine's kernels:
+    up to 400 s); returns that state."""
+    path = folder / f"{scene['name']}.json"
+    path.write_text(json.dumps(scene))
+    upload(page, path)
+    studio.wait_state(lambda s: s["scene_name"] == scene["name"],
+                      what=f"{scene['name']} scene loaded")
+    click(page, "Run", role="tab")
+    click(page, "Start run")
+    return studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
+                             timeout=400, what="a finished run in playback")
+
 def set_field(page, studio: StudioProcess, label: str, text: str, accepted,
               timeout: float = 20.0) -> dict:
     """Type ``text`` into the input labelled ``label`` and leave it (Tab), then wait until

@@ -2,23 +2,15 @@
 playable when the design changes, and the view says which of the two it shows."""
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from conftest import click, set_field, upload, wait_text
+from conftest import click, run_to_playback, set_field, wait_text
 
 
 @pytest.mark.slow  # a run in the worker (its first run compiles the kernels: 1-3 min cold)
 def test_e2e_playback_survives_a_design_edit(studio, page, shot, tmp_path, tiny_scene):
-    scene_file = tmp_path / "tiny.json"
-    scene_file.write_text(json.dumps(tiny_scene()))  # a 2 x 2 brush, a box pressed 1 mm
-    upload(page, scene_file)
-    studio.wait_state(lambda s: s["scene_name"] == "tiny", what="tiny scene loaded")
-    click(page, "Run", role="tab")
-    click(page, "Start run")
-    st = studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
-                           timeout=400, what="a finished run in playback")
+    # a 2 x 2 brush, a box pressed 1 mm
+    st = run_to_playback(page, studio, tiny_scene(), tmp_path)
     n = st["n_frames"]
     wait_text(page, "View: run")
     # the kinematic press gets its force against depth plot (issue 14, item 9)

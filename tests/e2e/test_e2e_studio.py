@@ -12,11 +12,9 @@ screenshot under tests/e2e/artifacts/.
 """
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from conftest import click, open_preset, set_field, upload, wait_text
+from conftest import click, open_preset, run_to_playback, set_field, upload, wait_text
 
 DEMO_SEGMENTS = 17 * 5 * (6 - 1)  # the demo scene: 17 x 5 bristles, 6 nodes each
 
@@ -108,14 +106,7 @@ def test_e2e_run_finishes_and_scrubs(studio, page, shot, artifacts_dir, tmp_path
                                      tiny_scene):
     import engine
 
-    scene_file = tmp_path / "tiny.json"
-    scene_file.write_text(json.dumps(tiny_scene()))  # a 2 x 2 brush, a box
-    upload(page, scene_file)
-    studio.wait_state(lambda s: s["scene_name"] == "tiny", what="tiny scene loaded")
-    click(page, "Run", role="tab")
-    click(page, "Start run")
-    st = studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
-                           timeout=400, what="a finished run in playback")
+    st = run_to_playback(page, studio, tiny_scene(), tmp_path)  # a 2 x 2 brush, a box
     wait_text(page, "completed")
     shot(page, "run-list")
     click(page, "Results", role="tab")

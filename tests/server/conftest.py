@@ -124,3 +124,21 @@ def long_scene(tiny_scene):
     """The tiny scene run long enough (2 s simulated: several wall seconds) to act on while
     it runs; the box holds still after its 4 ms of travel."""
     return tiny_scene(duration=2.0, record_interval=0.005)
+
+
+@pytest.fixture
+def wait_until():
+    """``wait_until(cond, timeout=600, what="")``: call ``cond()`` every 20 ms until it
+    returns something true, and return that; TimeoutError naming ``what`` after ``timeout``
+    seconds (the default leaves room for a cold numba cache compiling first)."""
+
+    def wait(cond, timeout: float = 600.0, what: str = ""):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            value = cond()
+            if value:
+                return value
+            time.sleep(0.02)
+        raise TimeoutError(what)
+
+    return wait

@@ -19,29 +19,19 @@ def manager(tmp_path):
     jm.close()
 
 
-def _wait(cond, timeout=600, what=""):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = cond()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise TimeoutError(what)
-
-
 def test_cancel_of_a_running_job_takes_effect_within_a_second(manager, long_scene,
-                                                               tiny_scene):
+                                                               tiny_scene, wait_until):
     job = manager.submit(long_scene, name="long")
     queued = manager.submit(tiny_scene(), name="behind")
-    _wait(lambda: manager.get(job).status == "running" and (manager.get(job).sim_time or 0)
-          > 0.005, what="the long job to run")
+    wait_until(lambda: manager.get(job).status == "running" and
+               (manager.get(job).sim_time or 0) > 0.005, what="the long job to run")
     assert manager.get(queued).status == "queued"  # one worker: FIFO
     # the worker's numba pool fits the machine: 1 worker x cores threads
     assert [w["numba_threads"] for w in manager.workers_info()] == \
         [manager.threads_per_worker]
     t0 = time.perf_counter()
     manager.cancel(job, wait=0)
-    _wait(lambda: manager.get(job).status == "cancelled", timeout=5)
+    wait_until(lambda: manager.get(job).status == "cancelled", timeout=5)
     latency = time.perf_counter() - t0
     assert latency < 1.0, latency  # the requirement
     info = manager.get(job)
@@ -131,13 +121,13 @@ def test_meshes_are_checked_stored_and_resolved(manager, tiny_scene, tmp_path):
 
 
 def test_close_cancels_the_running_job_and_keeps_queued_ones(tmp_path, long_scene,
-                                                            tiny_scene):
+                                                            tiny_scene, wait_until):
     data = tmp_path / "data"
     jm = JobManager(data, workers=1)
     running = jm.submit(long_scene)
     queued = jm.submit(tiny_scene())
-    _wait(lambda: jm.get(running).status == "running" and (jm.get(running).sim_time or 0)
-          > 0.005, what="the long job to run")
+    wait_until(lambda: jm.get(running).status == "running" and
+               (jm.get(running).sim_time or 0) > 0.005, what="the long job to run")
     pid = jm.get(running).worker_pid
     jm.close()
     with pytest.raises(ProcessLookupError):  # the worker was ended and reaped

@@ -10,25 +10,12 @@ from __future__ import annotations
 import os
 import signal
 import sqlite3
-import subprocess
-import time
-from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
 
 from studio.jobs import JobManager, StorageError
 from studio.server import create_app
-
-
-def _wait(cond, timeout=600.0, what=""):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = cond()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise TimeoutError(what)
 
 
 class FullDisk:
@@ -48,20 +35,20 @@ class FullDisk:
 
 
 def test_a_full_database_fails_the_job_and_the_service_recovers(tmp_path, long_scene,
-                                                                tiny_scene):
+                                                                tiny_scene, wait_until):
     jm = JobManager(tmp_path / "data", workers=1)
     disk = FullDisk(jm._store.db)
     jm._store.db = disk
     client = TestClient(create_app(jm))
     try:
         running = jm.submit(long_scene, name="running when the disk fills")
-        _wait(lambda: jm.get(running).status == "running" and jm.get(running).sim_time,
-              what="the job to run")
+        wait_until(lambda: jm.get(running).status == "running" and jm.get(running).sim_time,
+                   what="the job to run")
         pid = jm.get(running).worker_pid
         disk.full = True
         os.kill(pid, signal.SIGKILL)  # its death must be written to a full database
-        info = _wait(lambda: jm.get(running).done and jm.get(running), timeout=30,
-                     what="the killed job to be reported finished")
+        info = wait_until(lambda: jm.get(running).done and jm.get(running), timeout=30,
+                          what="the killed job to be reported finished")
         assert info.status == "failed" and "died while running" in info.error
         health = client.get("/api/health").json()
         assert health["status"] == "degraded"
@@ -75,10 +62,10 @@ def test_a_full_database_fails_the_job_and_the_service_recovers(tmp_path, long_s
         assert sorted(p.name for p in jm.runs_dir.iterdir()) == before
         # space returns: the failure is written, the pool is whole, new jobs run
         disk.full = False
-        _wait(lambda: jm._store.get(running).status == "failed", timeout=10,
-              what="the pending failure to be written")
-        _wait(lambda: client.get("/api/health").json()["status"] == "ok", timeout=120,
-              what="health to recover")
+        wait_until(lambda: jm._store.get(running).status == "failed", timeout=10,
+                   what="the pending failure to be written")
+        wait_until(lambda: client.get("/api/health").json()["status"] == "ok", timeout=120,
+                   what="health to recover")
         after = client.post("/api/runs", json=tiny_scene(duration=0.002))
         assert after.status_code == 201
         assert jm.wait(after.json()["id"], timeout=600).status == "completed"
@@ -86,51 +73,19 @@ def test_a_full_database_fails_the_job_and_the_service_recovers(tmp_path, long_s
         jm.close()
 
 
-@pytest.fixture
-def tiny_tmpfs(tmp_path):
-    """A 4 MiB tmpfs (the issue's reproduction); skipped where it cannot be mounted."""
-    mnt = tmp_path / "tmpfs"
-    mnt.mkdir()
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mnt)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.strip()}")
-    yield mnt
-    subprocess.run(["umount", "-l", str(mnt)], check=False)
-
-
-def _fill(path: Path) -> None:
-    """Write ``path`` until the disk is full (it may be full already)."""
-    try:
-        with open(path, "wb") as f:
-            while True:
-                f.write(b"\0" * 65536)
-                f.flush()
-    except OSError:
-        pass
-    try:  # the last partial blocks
-        with open(path, "ab") as f:
-            while True:
-                f.write(b"\0" * 512)
-                f.flush()
-    except OSError:
-        pass
-
-
 def test_a_full_tmpfs_fails_the_job_and_the_service_recovers(tiny_tmpfs, long_scene,
-                                                             tiny_scene):
+                                                             tiny_scene, wait_until,
+                                                             fill_disk):
     jm = JobManager(tiny_tmpfs / "data", workers=1, min_free_bytes=0)
     client = TestClient(create_app(jm))
     filler = tiny_tmpfs / "filler"
     try:
         first = jm.submit(long_scene, name="running when the disk fills")
-        _wait(lambda: jm.get(first).status == "running" and jm.get(first).sim_time,
-              what="the job to run")
-        _fill(filler)
-        info = _wait(lambda: jm.get(first).done and jm.get(first), timeout=300,
-                     what="the job running on a full disk to finish")
+        wait_until(lambda: jm.get(first).status == "running" and jm.get(first).sim_time,
+                   what="the job to run")
+        fill_disk(filler)
+        info = wait_until(lambda: jm.get(first).done and jm.get(first), timeout=300,
+                          what="the job running on a full disk to finish")
         # it either fitted (its file was already allocated) or failed saying why
         assert info.status == "completed" or "No space left on device" in (info.error or "") \
             or "full" in (info.error or ""), info

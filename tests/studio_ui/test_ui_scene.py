@@ -152,3 +152,44 @@ def test_ui_add_body_above_the_tips(demo):
     assert body["shape"] == {"type": "sphere", "radius": 0.005}
     # lowest point 1 mm above the 33 mm bristles' tips
     assert body["pose"]["position"][2] - 0.005 == pytest.approx(0.033 + 0.001)
+
+
+@pytest.mark.parametrize("motion", [
+    {"type": "fixed"},
+    {"type": "hinge", "axis": [1.0, 0.0, 0.0]},
+    {"type": "kinematic", "profile": {"kind": "constant"}},
+    {"type": "kinematic", "profile": {"kind": "stepped_parabolic", "max_acceleration": 1.0,
+                                      "n_steps": 2}},
+])
+def test_a_value_left_out_shows_what_the_engine_uses(motion):
+    # the defaults shown for optional values come from the scene model (studio/ui_fields.py
+    # reads engine.Scene); the reference is independent of that reading: the engine's own
+    # validation fills the scene in. A default restated in the studio and changed in
+    # engine/spec.py since (or read from the wrong union member) shows a different value
+    sparse = {
+        "name": "sparse", "run": {"duration": 0.1, "record_interval": 0.01},
+        "materials": {"silicone": {"youngs_modulus": 2.7e6, "density": 1700.0},
+                      "pla": {"youngs_modulus": 3.5e9, "density": 1250.0}},
+        "brushes": [{"material": "silicone", "bristle_length": 0.03, "root_radius": 0.001,
+                     "tip_radius": 0.0005}],
+        "bodies": [{"name": "b", "material": "pla",
+                    "shape": {"type": "box", "size": [0.01, 0.01, 0.01]},
+                    "mass_properties": {"density": 1250.0}, "motion": motion}],
+    }  # no contact pair listed: the pair fields show the law's defaults
+    listed = dict(sparse, contact_pairs=[{"materials": ["silicone", "silicone"]},
+                                         {"materials": ["silicone", "pla"]}])
+    filled = us.validate(listed)
+    assert filled.ok, filled.problems
+    full = us.scene_dict(filled.scene)
+    compared = 0
+    for f in us.FIELDS:
+        if not us.applicable(f, full, SEL):
+            continue
+        try:
+            expected = us.get_ui_value(f, full, SEL)
+        except us.NotApplicable:
+            continue
+        # the same SI numbers through the same unit conversion: equal but for float rounding
+        assert us.get_ui_value(f, sparse, SEL) == pytest.approx(expected, abs=1e-12), f.key
+        compared += 1
+    assert compared >= 30  # the check ran over the fields, not over an empty selection
