@@ -21,16 +21,12 @@ from typing import Optional
 from . import __version__, app, serve_cli
 from .commands import cmd_info as _cmd_info, cmd_run as _cmd_run, cmd_validate as _cmd_validate
 from .console import err as _err
-from .demo import DEMO_DIR, cmd_demo as _cmd_demo, plot_root_force
+from .demo import DEMO_DIR, cmd_demo as _cmd_demo
 from .exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_OK
-from .run_console import ProgressBar as _ProgressBar, output_problem, summary_table
 from .studies import cli as studies_cli
 from .studies import convergence, dissipation
 
-# summary_table, output_problem, plot_root_force, DEMO_DIR and _ProgressBar are imported
-# from here by tests and scripts written before the handlers moved out: kept importable
-__all__ = ["build_parser", "main", "summary_table", "output_problem", "plot_root_force",
-           "DEMO_DIR", "COMMAND_MODULES"]
+__all__ = ["build_parser", "main", "COMMAND_MODULES"]
 
 # Modules that add their own subcommands: each has ``register(subparsers)`` and imports its
 # heavy dependencies (dask, fastapi, viser) only inside the command it runs. This module is

@@ -43,8 +43,9 @@ def _describe_demo(scene) -> str:
             f"root_force.png shows, against time, the total vertical force the base exerts on "
             f"the bristle roots (the brush's weight plus what the {body.name} pushes), the "
             f"{body.name}'s depth, and the vertical force the bristles push back on the "
-            f"{body.name} with. The model is coarse (and gravity starts at t = 0) so that it "
-            f"runs in seconds; it is a demonstration, not a verification.")
+            f"{body.name} with, also against the depth (loading and unloading). The model "
+            f"is coarse (and gravity starts at t = 0) so that it runs in seconds; it is a "
+            f"demonstration, not a verification.")
     except (AttributeError, IndexError, TypeError):
         return f"What was simulated: {scene.description}"
 
@@ -79,10 +80,16 @@ def plot_root_force(result_path, png_path) -> None:
                     if force in channels:
                         pushes[name] = res.series(force)[:, 2]
         status, title = res.status, res.scene.name
-    fig, axes = plt.subplots(2 if pushes else 1, 1, sharex=True, squeeze=False,
-                             figsize=(8, 6.5 if pushes else 4.5),
-                             gridspec_kw={"height_ratios": [3, 2]} if pushes else None)
-    ax = axes[0, 0]
+        from .panels.results import press_depth_of
+
+        press = press_depth_of(res)  # (body, depth per frame in m) of a kinematic press
+    rows = 2 if pushes else 1
+    fig = plt.figure(figsize=(14 if press else 8, 6.5 if pushes else 4.5))
+    grid = fig.add_gridspec(rows, 2 if press else 1,
+                            height_ratios=[3, 2] if pushes else None,
+                            width_ratios=[1.0, 0.75] if press else None)
+    ax = fig.add_subplot(grid[0, 0])
+    axes = [ax] + ([fig.add_subplot(grid[1, 0], sharex=ax)] if pushes else [])
     ax.plot(t, fz, color="tab:blue", lw=1.2, label="total vertical root force")
     ax.set_ylabel("vertical root force F_z [N]", color="tab:blue")
     ax.tick_params(axis="y", labelcolor="tab:blue")
@@ -99,13 +106,26 @@ def plot_root_force(result_path, png_path) -> None:
     ax.legend(handles, [h.get_label() for h in handles], loc="upper left", fontsize=9)
     ax.set_title(f"{title} ({status})")
     if pushes:
-        axb = axes[1, 0]
+        axb = axes[1]
         for name, f in pushes.items():
             axb.plot(t, f * 1e3, lw=1.2, label=f"vertical contact force on {name}")
         axb.set_ylabel("F_z on body [mN]")
         axb.grid(alpha=0.3)
         axb.legend(loc="upper left", fontsize=9)
-    axes[-1, 0].set_xlabel("time [s]")
+    axes[-1].set_xlabel("time [s]")
+    if press is not None:  # the force against the depth of the press (issue 14, item 9)
+        body, depth = press
+        axd = fig.add_subplot(grid[:, 1])
+        if body in pushes:  # what a scale under the press would read (the root force
+            # also carries the brush's weight)
+            axd.plot(depth * 1e3, pushes[body] * 1e3, color="tab:blue", lw=1.2)
+            axd.set_ylabel(f"vertical contact force on {body} [mN]")
+        else:
+            axd.plot(depth * 1e3, fz, color="tab:blue", lw=1.2)
+            axd.set_ylabel("vertical root force F_z [N]")
+        axd.set_xlabel(f"depth of {body} [mm]")
+        axd.set_title(f"force against the {body}'s depth (loading and unloading)")
+        axd.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
     plt.close(fig)
@@ -155,7 +175,8 @@ def cmd_demo(args) -> int:
     print(f"  {h5}  the result file (HDF5, layout in docs/results.md)")
     print(f"  {summary_json}  the run summary")
     if plotted:
-        print(f"  {png}  vertical root force, wedge depth and wedge force against time")
+        print(f"  {png}  vertical root force, wedge depth and wedge force against time, "
+              f"and the wedge force against its depth")
     print()
     print(_describe_demo(scene))
     print()

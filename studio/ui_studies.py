@@ -20,7 +20,8 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import NO_JOBS, _fmt_s, _one_line, follow_job, job_of, set_job_choices
+from .panels.common import (NO_JOBS, PLOT_ASPECT, _fmt_s, _one_line, follow_job, job_of,
+                            set_job_choices)
 from .study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
@@ -359,13 +360,14 @@ class StudiesTab:
                 self.md_table.content = convergence_markdown(table)
                 self.md_table.visible = True
                 with self.results_folder:
-                    self.plot = self.gui.add_plotly(convergence_figure(table), aspect=1.5)
+                    self.plot = self.gui.add_plotly(convergence_figure(table),
+                                                    aspect=PLOT_ASPECT)
             except (OSError, ValueError, TypeError, KeyError) as exc:
                 self.md_table.content = f"cannot read the convergence table: {exc}"
                 self.md_table.visible = True
         with self.results_folder:
             for name, fig in study_charts(info.study, folder, files):
-                self.charts.append(self.gui.add_plotly(fig, aspect=1.4) if not isinstance(
+                self.charts.append(self.gui.add_plotly(fig, aspect=PLOT_ASPECT) if not isinstance(
                     fig, str) else self.gui.add_markdown(self.esc(fig)))
         # the PNGs the charts replace are left to the file list; the others are shown
         charted = CHARTED_PNGS.get(info.study or "", ()) if self.charts else ()

@@ -12,6 +12,10 @@ PLOT_CURSOR_S = 0.25      # plot cursor updates at most this often while playing
 MAX_VIEW_SEGMENTS = 2_000_000  # above this the view draws every bristle as one segment
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x")
 COLOR_MODES = ("bending moment", "deflection", "none")
+# viser 1.1 draws a plotly figure ``aspect`` times as tall as it is wide (its docstring says
+# width / height; the page sets height = width * aspect, over the layout's height): 0.62
+# gives a 540 px wide plot 335 px of height (the studio passed 1.4-1.6: plots taller than wide)
+PLOT_ASPECT = 0.62
 
 
 def _fmt_s(s) -> str:

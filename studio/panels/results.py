@@ -10,7 +10,8 @@ from typing import Any, Optional
 import numpy as np
 
 from .. import ui_view as uv
-from .common import COLOR_MODES, PLOT_CURSOR_S, SPEEDS, _md_escape, _safe_name
+from .common import (COLOR_MODES, PLOT_ASPECT, PLOT_CURSOR_S, SPEEDS, _md_escape,
+                     _safe_name)
 
 
 class ResultFrames:
@@ -202,11 +203,6 @@ def press_depth_of(result, body_names=None):
     return None
 
 
-# viser 1.1 draws a plotly figure ``aspect`` times as tall as it is wide (its docstring says
-# width / height; the page sets height = width * aspect, over the layout's height): 0.62
-# gives a 540 px wide plot 335 px of height (the studio passed 1.6: plots 1.6 times as tall
-# as wide)
-PLOT_ASPECT = 0.62
 
 
 def _components(fig, x, v, name: str, dash: str, axes: str = "xyz") -> None:
