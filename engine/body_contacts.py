@@ -547,13 +547,13 @@ def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
 
 
 # An edge contact between a segment's nodes fades out as the segment turns parallel to either
-# face of the edge, over the same sin^2 band as a bristle-bristle crossing
-# (``contacts.CROSS_SIN2_LO``/``HI``): sin^2 of the angle between the segment and the face's
-# plane from 0.04 (0.2 rad, no contact) to 0.10 (0.32 rad, full contact). Two reasons:
+# face of the edge: chi = S(c_F) S(c_G), c the squared sine of the angle between the segment
+# and the face's plane, S the smoothstep from EDGE_FACE_SIN2_LO (0: no contact) to
+# EDGE_FACE_SIN2_HI (0.01, 5.7 deg: full contact). Two reasons:
 #   * the closest point's parameter s moves like 1 / sin^2 of the angle between the segment
 #     and the edge (``_edge_fade_forces``), and that angle is at least the one between the
-#     segment and either face's plane (the edge lies in both), so the fade's gradient stays
-#     below 1 / EDGE_FACE_SIN2_LO times that of a crossing edge;
+#     segment and either face's plane (the edge lies in both); S(c) <= 3 (c / 0.01)^2, so
+#     chi grad s stays bounded (chi / c <= 113) and vanishes with the angle;
 #   * the closest point leaves an edge for a face's interior exactly when the segment lies
 #     parallel to that face (the axis-to-edge direction then reaches the face's normal, and
 #     the axis is perpendicular to it): an edge contact still at full weight there would vanish
@@ -561,6 +561,10 @@ def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
 #     on a face touches it at its nodes), continuously. Flat edges (between coplanar
 #     triangles) are then never counted: a segment whose closest point lies on one is parallel
 #     to the face.
+# The band is narrow because the node on the face's side is ``l sin(angle)`` above the face
+# when the segment rests on the edge at a distance l from it: with the bristle-bristle
+# crossing's band (sin^2 0.04 to 0.10) a box's edge let a bristle lying at 15 deg to a face
+# sink to 0.78 of its radius (docs/stability.md).
 EDGE_FACE_SIN2_LO = 0.0
 EDGE_FACE_SIN2_HI = 0.01
 
