@@ -226,11 +226,12 @@ def test_energy_is_conserved_in_a_vibrating_brush_with_elastic_contacts():
     assert band < 0.02, f"energy band {band:.3%}"
 
 
-def _sphere_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, float, np.ndarray]:
-    """Issue 11's scene: an undamped, frictionless 5 x 5 brush of tapered bristles (8 nodes,
-    1.0 -> 0.5 mm) hit off-centre by a free PLA sphere (r 6 mm, 0.5 m/s), for 1e5 automatic
-    steps' worth of time at ``dt_factor`` x the automatic dt. Returns (relative total energy
-    series, dt, the sphere's final velocity)."""
+def _body_on_tapered_brush(body: dict, dt_factor: float, until):
+    """Issue 11's brush: an undamped, frictionless 5 x 5 brush of tapered bristles (8 nodes,
+    1.0 -> 0.5 mm, 20 mm long, 2.5 mm pitch) hit by the free PLA ``body`` (a scene body
+    without its material), run until ``until`` (s, or a function of the automatic dt) at
+    ``dt_factor`` x the automatic dt. Returns
+    (relative total energy series, dt, the body's final velocity)."""
     scene = engine.parse_scene({
         "materials": {"silicone": SILICONE,
                       "pla": {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36,
@@ -238,23 +239,31 @@ def _sphere_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, float, np.nd
         "brushes": [{"name": "b", "material": "silicone", "rows": 5, "columns": 5,
                      "pitch": [0.0025, 0.0025], "bristle_length": 0.02,
                      "root_radius": 0.001, "tip_radius": 0.0005, "n_nodes": 8}],
-        "bodies": [{"name": "ball", "material": "pla",
-                    "shape": {"type": "sphere", "radius": 0.006},
-                    "mass_properties": {"density": 1250.0},
-                    "pose": {"position": [0.0017, 0.0009, 0.0275]},
-                    "motion": {"type": "free"}, "velocity": [0.0, 0.0, -0.5]}],
+        "bodies": [dict(body, material="pla")],
         "environment": {"gravity": [0.0, 0.0, 0.0]},
         "run": {"duration": 10.0, "record_interval": 0.0005,
                 "channels": ["energy", "contacts", "bodies"]}})
     system = engine.build(scene)
     auto_dt = system.dt
     system.dt = auto_dt * dt_factor
-    result = engine.run(system, until=100_000 * auto_dt)
+    result = engine.run(system, until=until(auto_dt) if callable(until) else until)
     with result.open() as res:
         total = res.series("energy/total")
         touched = res.series("contacts/bristle_body").max()
-    assert touched > 0, "the sphere must hit the brush"
+    assert touched > 0, f"the {body['name']} must hit the brush"
     return total / total[0] - 1.0, system.dt, system.bodies.v[0].copy()
+
+
+def _sphere_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, float, np.ndarray]:
+    """Issue 11's scene: the brush hit off-centre by a free PLA sphere (r 6 mm, 0.5 m/s), for
+    1e5 automatic steps' worth of time at ``dt_factor`` x the automatic dt. Returns (relative
+    total energy series, dt, the sphere's final velocity)."""
+    return _body_on_tapered_brush(
+        {"name": "ball", "shape": {"type": "sphere", "radius": 0.006},
+         "mass_properties": {"density": 1250.0},
+         "pose": {"position": [0.0017, 0.0009, 0.0275]},
+         "motion": {"type": "free"}, "velocity": [0.0, 0.0, -0.5]},
+        dt_factor, lambda auto_dt: 100_000 * auto_dt)
 
 
 def test_free_sphere_on_tapered_brush_conserves_energy():
@@ -282,30 +291,14 @@ def _box_edge_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, np.ndarray
     edge: the bristles' segments cross it between their nodes. Returns (relative total
     energy series, the box's final velocity)."""
     half = math.radians(45.0) / 2
-    scene = engine.parse_scene({
-        "materials": {"silicone": SILICONE,
-                      "pla": {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36,
-                              "density": 1250.0}},
-        "brushes": [{"name": "b", "material": "silicone", "rows": 5, "columns": 5,
-                     "pitch": [0.0025, 0.0025], "bristle_length": 0.02,
-                     "root_radius": 0.001, "tip_radius": 0.0005, "n_nodes": 8}],
-        "bodies": [{"name": "box", "material": "pla",
-                    "shape": {"type": "box", "size": [0.02, 0.012, 0.012]},
-                    "mass_properties": {"density": 1250.0},
-                    "pose": {"position": [0.0, 0.0009, 0.0295],
-                             "orientation": [math.cos(half), math.sin(half), 0.0, 0.0]},
-                    "motion": {"type": "free"}, "velocity": [0.0, 0.0, -0.5]}],
-        "environment": {"gravity": [0.0, 0.0, 0.0]},
-        "run": {"duration": 10.0, "record_interval": 0.0005,
-                "channels": ["energy", "contacts", "bodies"]}})
-    system = engine.build(scene)
-    system.dt *= dt_factor
-    result = engine.run(system, until=0.1)
-    with result.open() as res:
-        total = res.series("energy/total")
-        touched = res.series("contacts/bristle_body").max()
-    assert touched > 0, "the box must hit the brush"
-    return total / total[0] - 1.0, system.bodies.v[0].copy()
+    rel, _dt, v = _body_on_tapered_brush(
+        {"name": "box", "shape": {"type": "box", "size": [0.02, 0.012, 0.012]},
+         "mass_properties": {"density": 1250.0},
+         "pose": {"position": [0.0, 0.0009, 0.0295],
+                  "orientation": [math.cos(half), math.sin(half), 0.0, 0.0]},
+         "motion": {"type": "free"}, "velocity": [0.0, 0.0, -0.5]},
+        dt_factor, 0.1)
+    return rel, v
 
 
 def test_free_box_edge_first_on_tapered_brush_conserves_energy():
