@@ -14,7 +14,7 @@ import math
 
 from numba import njit, prange
 
-from .bodies import FIXED, KINEMATIC
+from .bodies import FIXED, KINEMATIC, push_body
 from .bonds import PARALLEL_MIN
 from .contact_law import (clear_history, contact_force, contact_with_history,
                           normal_stiffness, smoothstep)
@@ -711,15 +711,8 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
         Fz = fc[c, 2]
         add_segment_force(x, f, t, bi[sg], bj[sg], par_s[c], Fx, Fy, Fz, cp[c, 0], cp[c, 1],
                           cp[c, 2])
-        rx = cp[c, 0] - bpos[k, 0]
-        ry = cp[c, 1] - bpos[k, 1]
-        rz = cp[c, 2] - bpos[k, 2]
-        bf[k, 0] -= Fx
-        bf[k, 1] -= Fy
-        bf[k, 2] -= Fz
-        btq[k, 0] -= ry * Fz - rz * Fy
-        btq[k, 1] -= rz * Fx - rx * Fz
-        btq[k, 2] -= rx * Fy - ry * Fx
+        push_body(bf, btq, k, cp[c, 0] - bpos[k, 0], cp[c, 1] - bpos[k, 1],
+                  cp[c, 2] - bpos[k, 2], -Fx, -Fy, -Fz)
         # the fade's and taper's part of the energy gradient (``_point_fade_forces``)
         i0 = bi[sg]
         i1 = bj[sg]
@@ -851,18 +844,8 @@ def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, bo
             ft[k1, k2, 0] = f0
             ft[k1, k2, 1] = f1
             ft[k1, k2, 2] = f2
-            bf[a, 0] += Fx
-            bf[a, 1] += Fy
-            bf[a, 2] += Fz
-            btq[a, 0] += ray * Fz - raz * Fy
-            btq[a, 1] += raz * Fx - rax * Fz
-            btq[a, 2] += rax * Fy - ray * Fx
-            bf[b, 0] -= Fx
-            bf[b, 1] -= Fy
-            bf[b, 2] -= Fz
-            btq[b, 0] -= rby * Fz - rbz * Fy
-            btq[b, 1] -= rbz * Fx - rbx * Fz
-            btq[b, 2] -= rbx * Fy - rby * Fx
+            push_body(bf, btq, a, rax, ray, raz, Fx, Fy, Fz)
+            push_body(bf, btq, b, rbx, rby, rbz, -Fx, -Fy, -Fz)
             count += 1
             e_sto += sto
             e_dis += dis
