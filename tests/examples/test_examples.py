@@ -127,6 +127,8 @@ def test_example_04_service_client(tmp_path):
     with engine.open_result(tmp_path / "run.h5") as res:   # the downloaded file
         assert res.status == "completed"
         assert res.n_frames == round(res.scene.run.duration / res.scene.run.record_interval) + 1
+        # the example cut the shipped preset to 10 ms: the server ran what was submitted
+        assert res.scene.run.duration == 0.01 and res.scene.name == "gripper"
     assert "server stopped (exit code 0)" in out
 
 
