@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal, Optional, Union
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, model_validator
 
-from .spec_common import (FiniteFloat, NonNegativeFloat, Pose, PositiveFloat, Vector3,
-                          _Model)
+from .spec_common import (FiniteFloat, NonNegativeFloat, NonZeroVector3, Pose, PositiveFloat,
+                          Vector3, _Model)
 
 
 # --------------------------------------------------------------------------- bodies
@@ -98,17 +98,10 @@ class HingeMotion(_Model):
     dissipation of seed eq. 4.6: d(omega)/dt = -k1 omega - k2 sign(omega)."""
 
     type: Literal["hinge"] = "hinge"
-    axis: Vector3
+    axis: NonZeroVector3
     point: Optional[Vector3] = Field(None, description="default: the body's centre of mass")
     k1: NonNegativeFloat = Field(0.0, description="1/s")
     k2: NonNegativeFloat = Field(0.0, description="rad/s^2")
-
-    @field_validator("axis")
-    @classmethod
-    def _nonzero(cls, a):
-        if math.sqrt(sum(c * c for c in a)) < 1e-12:
-            raise ValueError("must be a non-zero vector")
-        return a
 
 
 class ConstantProfile(_Model):
@@ -124,20 +117,13 @@ class SteppedParabolicProfile(_Model):
     ``dwell`` seconds at rest after each step; then, if ``unload``, the same steps back."""
 
     kind: Literal["stepped_parabolic"] = "stepped_parabolic"
-    direction: Vector3 = (0.0, 0.0, -1.0)
+    direction: NonZeroVector3 = (0.0, 0.0, -1.0)
     step: PositiveFloat = 0.001
     max_acceleration: PositiveFloat
     n_steps: int = Field(ge=1, le=100_000)
     dwell: NonNegativeFloat = 0.0
     unload: bool = False
     start_delay: NonNegativeFloat = 0.0
-
-    @field_validator("direction")
-    @classmethod
-    def _nonzero(cls, a):
-        if math.sqrt(sum(c * c for c in a)) < 1e-12:
-            raise ValueError("must be a non-zero vector")
-        return a
 
 
 class WaypointsProfile(_Model):

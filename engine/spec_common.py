@@ -10,7 +10,8 @@ import json
 import math
 from typing import Annotated
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
+from pydantic import (AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field,
+                      field_validator, model_validator)
 
 SEP, FS = "\x1e", "\x1f"  # record/field separators of cross-reference problems
 
@@ -28,6 +29,15 @@ PositiveFloat = Annotated[float, _Number, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, _Number, Field(ge=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, _Number, Field(allow_inf_nan=False)]
 Vector3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+
+
+def _nonzero(a):
+    if math.sqrt(sum(c * c for c in a)) < 1e-12:
+        raise ValueError("must be a non-zero vector")
+    return a
+
+
+NonZeroVector3 = Annotated[Vector3, AfterValidator(_nonzero)]  # an axis or a direction
 
 
 class _Model(BaseModel):
