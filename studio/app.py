@@ -37,7 +37,7 @@ from typing import Optional
 from .console import print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from .panels.common import STREAM_HZ
-from .panels.results import ResultFrames  # noqa: F401  (the studio's public name)
+from .panels.result_frames import ResultFrames  # noqa: F401  (the studio's public name)
 from .session import Session
 from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
 

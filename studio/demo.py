@@ -80,7 +80,7 @@ def plot_root_force(result_path, png_path) -> None:
                     if force in channels:
                         pushes[name] = res.series(force)[:, 2]
         status, title = res.status, res.scene.name
-        from .panels.results import press_depth_of
+        from .result_plots import press_depth_of
 
         press = press_depth_of(res)  # (body, depth per frame in m) of a kinematic press
     rows = 2 if pushes else 1

@@ -23,7 +23,8 @@ from . import ui_scene as us
 from . import ui_view as uv
 from .panels.common import POLL_S, STUDIES_POLL_S
 from .panels.design import DesignPanel
-from .panels.results import ResultFrames, ResultsPanel
+from .panels.result_frames import ResultFrames
+from .panels.results import ResultsPanel
 from .panels.run import RunPanel
 from .panels.studies import StudiesPanel
 

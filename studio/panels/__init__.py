@@ -1,6 +1,7 @@
 """The studio's panels, one module per tab of the page: ``design`` (the scene's fields,
 presets, bodies, uploads), ``run`` (start, cancel, the shared Runs list, the live stream),
-``results`` (playback, plots, downloads; ``ResultFrames`` reads a result file for display)
+``results`` (playback, plots, downloads; ``result_frames.ResultFrames`` reads a result
+file for display, ``studio.result_plots`` draws its plots)
 and ``studies`` (the Studies tab on the job pool). Each is a mixin of
 :class:`studio.app.Studio`, which owns the state they share (the design, the view, the
 lock) and the poller; ``common`` holds formatting and display constants."""

@@ -11,7 +11,7 @@ from . import run_cost as rcost
 from .common import (NO_JOBS, _fmt_rate, _fmt_s, _md_escape, follow_job, job_of,
                      set_job_choices)
 from .common import _one_line  # (the Runs list's rows)
-from .results import ResultFrames
+from .result_frames import ResultFrames
 
 
 def _running_text(info) -> str:

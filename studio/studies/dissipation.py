@@ -37,6 +37,8 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
+
+from . import api
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_OK
 
 DEFAULT_OUTPUT = "fit-dissipation"
@@ -426,7 +428,10 @@ def register(subparsers) -> None:
     p.add_argument("--min-speed", type=float, metavar="RAD_PER_S", default=None,
                    help="fit only samples turning faster than this (default 5%% of the "
                         "top speed)")
-    p.set_defaults(func=_cmd_fit)
+    from .study_command import set_command
+
+    # (its own -o/--output above, no execution options: the fit runs no simulation)
+    set_command(p, run, Options, common_options=False)
 
 
 @dataclass
@@ -445,18 +450,6 @@ class Options:
         import dataclasses
 
         return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
-
-
-def run(options: Options, out_dir, *, progress=None, cancel=None):
-    """Fit ``options.spindown`` and write the fit into ``out_dir``: a ``StudyResult``
-    (exit code 0 ok, 2 a spin-down that cannot be fitted)."""
-    from .api import run_body
-
-    return run_body("fit-dissipation", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_fit(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -480,3 +473,9 @@ def _run_study(options: Options, out: Path) -> int:
     print(f'For a hinge body: "motion": {{"type": "hinge", "axis": [0, 1, 0], '
           f'"k1": {fit.k1:.6g}, "k2": {fit.k2:.6g}}}')
     return EXIT_OK
+
+
+# ``run(options, out_dir, *, progress=None, cancel=None)``: fit ``options.spindown`` and write
+# the fit into ``out_dir``; a ``StudyResult`` (exit code 0 ok, 2 a spin-down that cannot be
+# fitted)
+run = api.study_run("fit-dissipation", _run_study)

@@ -36,12 +36,15 @@ def add_common_options(parser: argparse.ArgumentParser, default_output: Optional
 
 
 def set_command(parser: argparse.ArgumentParser, run: Callable, options: type, *,
-                default_output: Optional[str] = None, **defaults) -> None:
-    """Finish a study's parser: the common options (:func:`add_common_options`) and, as its
-    ``func``, the command: the parsed arguments as ``options`` (``options.from_args``), run
-    by ``run`` into ``--output``; it returns the exit code. ``defaults``: more
-    ``set_defaults`` values."""
-    add_common_options(parser, default_output)
+                default_output: Optional[str] = None, common_options: bool = True,
+                **defaults) -> None:
+    """Finish a study's parser: the common options (:func:`add_common_options`; with
+    ``common_options=False`` the parser declares its own ``-o/--output`` and whatever
+    execution options it has) and, as its ``func``, the command: the parsed arguments as
+    ``options`` (``options.from_args``), run by ``run`` into ``--output``; it returns the
+    exit code. ``defaults``: more ``set_defaults`` values."""
+    if common_options:
+        add_common_options(parser, default_output)
 
     def command(args) -> int:
         return run(options.from_args(args), args.output).exit_code

@@ -228,7 +228,6 @@ def upload(page, path, accept: str = "application/json") -> None:
     page.locator(f'input[type=file][accept="{accept}"]').set_input_files(str(path))
 
 
-
 def run_to_playback(page, studio: StudioProcess, scene: dict, folder: Path) -> dict:
     """Upload ``scene`` (written to ``folder``), start a run of it on the Run tab and wait
     for the finished run in playback (the worker's first run compiles the engine's kernels:
@@ -238,10 +237,18 @@ def run_to_playback(page, studio: StudioProcess, scene: dict, folder: Path) -> d
     upload(page, path)
     studio.wait_state(lambda s: s["scene_name"] == scene["name"],
                       what=f"{scene['name']} scene loaded")
+    return start_run(page, studio)
+
+
+def start_run(page, studio: StudioProcess, timeout: float = 400.0,
+              what: str = "a finished run in playback") -> dict:
+    """Start a run of the design on the Run tab and wait for the finished run in playback
+    (more than two frames); returns that state."""
     click(page, "Run", role="tab")
     click(page, "Start run")
     return studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
-                             timeout=400, what="a finished run in playback")
+                             timeout=timeout, what=what)
+
 
 def set_field(page, studio: StudioProcess, label: str, text: str, accepted,
               timeout: float = 20.0) -> dict:

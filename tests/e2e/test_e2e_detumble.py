@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import click, open_preset, set_field, wait_text
+from conftest import click, open_preset, set_field, start_run, wait_text
 from test_e2e_results_readable import wait_plots
 
 DURATION = 1.0  # s: the chaser approaches and the brush touches the stage at about 0.82 s
@@ -48,10 +48,7 @@ def test_e2e_detumble_loads_runs_and_plays_back(studio, page, shot):
     _open_run_settings(page)
     set_field(page, studio, "duration [s]", f"{DURATION:g}",
               lambda s: s["scene"]["run"]["duration"] == pytest.approx(DURATION))
-    click(page, "Run", role="tab")
-    click(page, "Start run")
-    st = studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
-                           timeout=600, what="the detumble run in playback")
+    st = start_run(page, studio, timeout=600, what="the detumble run in playback")
     click(page, "Results", role="tab")
     n = st["n_frames"]
     assert st["slider"]["max"] == pytest.approx(DURATION, abs=1e-3)

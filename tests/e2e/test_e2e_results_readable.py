@@ -5,12 +5,11 @@ trace in the cursor's red. The plots are read from the page itself (plotly keeps
 figure's data on its element, decoded in ``_fullData``). Screenshots under tests/e2e/artifacts/."""
 from __future__ import annotations
 
-import json
 import re
 
 import pytest
 
-from conftest import click, upload, wait_text
+from conftest import click, run_to_playback, wait_text
 
 PLOTS_JS = """() => [...document.querySelectorAll('.js-plotly-plot')]
     .filter(p => p.offsetParent !== null && p.layout && p.layout.title)
@@ -50,14 +49,8 @@ def legend_text(page) -> str:
 
 @pytest.mark.slow  # a run in the worker (its first run compiles the kernels: 1-3 min cold)
 def test_e2e_results_are_readable(studio, page, shot, tmp_path, tiny_scene):
-    scene_file = tmp_path / "tiny.json"
-    scene_file.write_text(json.dumps(tiny_scene()))  # a 2 x 2 brush, a box pressed 1 mm
-    upload(page, scene_file)
-    studio.wait_state(lambda s: s["scene_name"] == "tiny", what="tiny scene loaded")
-    click(page, "Run", role="tab")
-    click(page, "Start run")
-    st = studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2,
-                           timeout=400, what="a finished run in playback")
+    st = run_to_playback(page, studio, tiny_scene(), tmp_path)  # a 2 x 2 brush, a box
+    # pressed 1 mm
     click(page, "Results", role="tab")
     n = st["n_frames"]
     t_end = st["slider"]["max"]

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from studio.panels.results import press_depth
+from studio.result_plots import press_depth
 
 
 class _Result:
@@ -85,7 +85,7 @@ def _spin_frames():
 
 
 def test_plots_show_signed_components_of_a_reversing_spin():
-    from studio.panels.results import result_figures
+    from studio.result_plots import result_figures
 
     figs, cursor_x = result_figures(_spin_frames())
     traces = {d.name: np.asarray(d.y) for d in figs["angular velocity [deg/s]"].data}
@@ -103,7 +103,7 @@ def test_plots_show_signed_components_of_a_reversing_spin():
     dv = figs["Δv of the controlled body [m/s]"].data[0]
     assert dv.name.startswith("disc Δv") and dv.y[-1] == pytest.approx(0.2)
     # no trace of the cursor's red, and every plot's x is the time (no press here)
-    from studio.panels.results import CURSOR_COLOR
+    from studio.result_plots import CURSOR_COLOR
     assert not cursor_x
     assert all(d.line.color != CURSOR_COLOR for f in figs.values() for d in f.data)
 

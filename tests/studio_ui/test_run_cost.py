@@ -10,7 +10,7 @@ import pytest
 
 from studio import presets
 from studio.panels import run_cost as rc
-from studio.panels.results import color_note
+from studio.panels.result_frames import color_note
 
 
 def _scene(name, **run):

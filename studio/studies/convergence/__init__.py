@@ -43,4 +43,4 @@ from .outputs import (  # noqa: F401
 from .running import (  # noqa: F401
     _run_dask, _run_serial, run_convergence, run_ladder, run_level, tabulate)
 from .command import (  # noqa: F401
-    Options, _cmd_convergence, _err, _run_study, register, run)
+    Options, _err, _run_study, register, run)

@@ -12,6 +12,8 @@ from .quantities import ConvergenceError, QUANTITY_HELP, parse_quantity
 from .ladder import parse_factors, parse_ladder
 from .protocol_ladder import parse_protocol_ladder
 from .running import run_convergence
+from .. import api
+from ..study_command import set_command
 
 
 def _err(msg: str) -> None:
@@ -48,17 +50,6 @@ class Options:
         import dataclasses
 
         return dataclasses.asdict(self)
-
-
-def run(options: Options, out_dir, *, progress=None, cancel=None):
-    """The convergence study of ``options`` into ``out_dir``: a ``StudyResult``."""
-    from studio.studies import api
-
-    return api.run_body("convergence", _run_study, options, out_dir, progress, cancel)
-
-
-def _cmd_convergence(args) -> int:
-    return run(Options.from_args(args), args.output).exit_code
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -108,6 +99,10 @@ def _run_study(options: Options, out: Path) -> int:
           "convergence.png")
     return EXIT_OK if all(r["status"] in ("completed", "stopped") for r in table.rows) \
         else EXIT_FAILED
+
+
+# the convergence study of ``options`` into ``out_dir``: a ``StudyResult``
+run = api.study_run("convergence", _run_study)
 
 
 def _scene_path(ref: str) -> Path:
@@ -186,4 +181,5 @@ def register(subparsers) -> None:
                    help="local cluster workers (default one per core)")
     p.add_argument("-q", "--quiet", "--no-progress", dest="quiet", action="store_true",
                    help="no progress bar")
-    p.set_defaults(func=_cmd_convergence)
+    # (its own -o/--output and execution options: --serial, -q/--quiet)
+    set_command(p, run, Options, common_options=False)
