@@ -210,7 +210,7 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     # torsional spring (1.5 N m/rad loading, 47 s period with izz) that stores the spin
     # (0.20 J of bond energy at omega_z = 0, 21.8 s) and gives it back (-1.38 deg/s at 30 s);
     # the bristles' bond dampers (c/k ~ 2.5e-4 s: loss factor ~3e-5 at that period) cannot
-    # take it. Soft, damped attitude loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12,
+    # take it (bond damping 0.5 tried: -1.45 deg/s at 30 s). Soft, damped attitude loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12,
     # 1 / 20) were tried and failed (the wound brush collapsed or the target drifted back
     # up, seen): staying detumbled needs the chaser to let go at the threshold (a pose
     # schedule, which engine/control.py does not have)
