@@ -3,8 +3,8 @@ Earth orbit. Loaded by ``generate.py`` (which writes the JSON files); ``studio.s
 detumble`` reads the presets back and varies them.
 
 Both scenes share one layout, which the study relies on: a free body ``target`` spinning
-about a principal axis, a free body ``chaser`` (``collide: false``: its hull has no contact,
-issue 15 item 3) carrying the brush ``brush`` (``mount: chaser``), and the controller
+about a principal axis, a free body ``chaser`` (``collide: false``: hull contact is left
+off, see ``HULL_CONTACT``) carrying the brush ``brush`` (``mount: chaser``), and the controller
 ``chaser_control`` holding the chaser at a fixed offset from the target's centre (world
 axes) and at a fixed attitude. The brush's bristles point from the chaser at the target
 along the offset's direction; at the held offset the undeformed bristle tips would reach
@@ -36,6 +36,12 @@ CHASER = {"size": 1.0, "mass": 300.0, "sample_interval": 0.1, "max_force": 10.0,
 # restitution 0.5 against the target (assumptions; elastic, the tips bounce off the face)
 SILICONE_DAMPING = 0.1
 RESTITUTION = 0.5
+# Hull contact (issue 15 item 2) is off: the held offset keeps the chaser's face
+# reach - INTERFERENCE = 137.5 mm from the target's surface, and turning it on (chaser
+# collide true, the target sampled at 0.1 m) cuts the automatic time step from 8.8e-5 s to
+# 8.1e-6 s (upper stage) and 5.3e-6 s (box satellite): the aluminium-aluminium contact
+# stiffness against the target's rotational inertia (measured: docs/mission.md)
+HULL_CONTACT = False
 
 
 def _chaser_gains():
@@ -85,7 +91,7 @@ def _scene(name, what, target, brushes, axis, surface, controller_extra, silicon
                                   "inertia": [[inertia, 0, 0], [0, inertia, 0],
                                               [0, 0, inertia]]},
               "motion": {"type": "free"}, "pose": {"position": [start * x for x in axis]},
-              "collide": False}
+              "collide": HULL_CONTACT}
     return {
         "schema_version": 1, "name": name, "description": desc,
         "materials": materials, "contact_pairs": pairs, "brushes": brushes,
@@ -122,8 +128,10 @@ def _common_text(brush, n_nodes, duration, stop_fraction):
         f"(seed 4.2); coefficient of restitution silicone-aluminium {RESTITUTION:g} "
         f"(assumed), silicone-silicone 1. Chaser (chaser): a "
         f"{a:g} m aluminium box of {CHASER['mass']:g} kg (uniform inertia {inertia:g} kg "
-        f"m^2), collide false (its hull has no contact model yet, issue 15 item 3; the "
-        f"held offset keeps it clear of the target), carrying the brush on its face toward "
+        f"m^2), collide false (hull contact off: the held offset keeps its face "
+        f"{(brush['bristle_length'] + brush['tip_radius'] - INTERFERENCE) * 1e3:g} mm "
+        f"clear of the target, and the aluminium hulls' contact stiffness would cut the "
+        f"time step 11 to 17 times), carrying the brush on its face toward "
         f"the target. Controller chaser_control (assumed values): holds the chaser at a "
         f"fixed offset from the target's centre (world axes) where the undeformed bristle "
         f"tips would reach {INTERFERENCE * 1e3:g} mm inside the target's surface, and at "
@@ -196,6 +204,16 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     lever = 0.25                                # each brush's centre from the spin axis
     tip_sd = 1e-3                               # m: scatter of the tips (assumed)
     n_nodes, duration, stop_fraction = 5, 30.0, 0.05
+    # It does not detumble (issue 15 item 1, docs/mission.md): the brushes' tips stick to
+    # the slow face (friction limit tan 30 deg x 4.3 N x 0.25 m = 0.62 N m, never reached:
+    # at most 0.42 N m while winding), so against the rigidly held chaser they are a
+    # torsional spring (1.5 N m/rad loading, 47 s period with izz) that stores the spin
+    # (0.20 J of bond energy at omega_z = 0, 21.8 s) and gives it back (-1.38 deg/s at 30 s);
+    # the bristles' bond dampers (c/k ~ 2.5e-4 s: loss factor ~3e-5 at that period) cannot
+    # take it (bond damping 0.5 tried: -1.45 deg/s at 30 s). Soft, damped attitude loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12,
+    # 1 / 20) were tried and failed (the wound brush collapsed or the target drifted back
+    # up, seen): staying detumbled needs the chaser to let go at the threshold (a pose
+    # schedule, which engine/control.py does not have)
     # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
     # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
     # each: their pushes' moments across the spin axis cancel (one brush off the axis
@@ -236,7 +254,15 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"{lever * 1e3:g} mm either side of the axis along x (so their pushes do not tilt "
         f"the target), tips scattered by {tip_sd * 1e3:g} mm (standard deviation in the "
         f"base plane, seeds 1 and 2: assumed manufacturing scatter; perfectly straight "
-        f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. ")
+        f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. "
+        f"Known result (docs/mission.md): the brushes take the spin about z through zero "
+        f"(21.8 s) and then spin the target back (-1.38 deg/s at 30 s): their tips stick "
+        f"to the slow face "
+        f"(the friction limit, tan 30 deg x the 4.3 N push x 0.25 m = 0.62 N m, exceeds "
+        f"the 0.42 N m they reach), so they store the spin as a torsional spring (about "
+        f"1.5 N m/rad with the target's {izz:.1f} kg m^2) and give it back; a chaser that "
+        f"lets go once the target is slow is not modelled (the controller holds a fixed "
+        f"pose). ")
     # the chaser's centre: above the target's centre of mass (the body origin) on +z
     return _scene("detumble_box_satellite", what, target, brushes, (0.0, 0.0, 1.0), bus / 2,
                   {}, silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)

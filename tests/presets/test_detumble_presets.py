@@ -23,7 +23,7 @@ def test_preset_has_the_detumble_layout_and_describes_itself(name):
     bodies = {b.name: b for b in scene.bodies}
     target, chaser = bodies["target"], bodies["chaser"]
     assert target.motion.type == "free" and chaser.motion.type == "free"
-    assert not chaser.collide                       # no hull contact model yet (item 3)
+    assert not chaser.collide         # hull contact off: it would cut dt 11-17x (item 2)
     assert scene.brushes and all(b.mount == "chaser" for b in scene.brushes)
     (ctl,) = scene.controllers
     assert (ctl.name, ctl.body, ctl.reference) == ("chaser_control", "chaser", "target")
@@ -96,3 +96,35 @@ def test_box_satellite_inertia_is_the_bus_plus_panel():
 @pytest.mark.parametrize("name", DETUMBLE)
 def test_smoke_run_of_each_detumble_preset_stays_finite(name, smoke_run):
     smoke_run(name)  # (its checks: tests/presets/conftest.py)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="issue 15 item 1, open: the brushes take the spin through zero at "
+                          "21.8 s, then spin the target back (-1.38 deg/s at 30 s); "
+                          "docs/mission.md")
+def test_box_satellite_detumbles_and_stays_detumbled(preset_dict, run_scene):
+    """The whole preset, 30 s (60 CPU-s, 90 s wall on the shared machine), with the stop's hold
+    made 10 s: the target must come below 5 % of its initial spin and stay there for 10 s,
+    a fifth of the brushes' 47 s torsional period (an undamped spin-back crosses the
+    threshold within about 1 s of the stop, so the preset's 1 s hold can miss it). Strict,
+    assertions only: once a preset change makes it pass, the marker must go."""
+    import engine
+
+    scene = preset_dict("detumble_box_satellite")
+    stop = scene["run"]["stop"]
+    stop["hold"] = 10.0
+    system, result = run_scene(scene)
+    with engine.open_result(result.path) as res:
+        t = np.asarray(res.time)
+        speed = np.linalg.norm(np.asarray(res.series("bodies/target/angular_velocity")),
+                               axis=1)
+    threshold = 0.05 * speed[0]
+    assert stop["value"] == pytest.approx(threshold, rel=1e-12)
+    above = np.flatnonzero(speed >= threshold)
+    assert above[-1] + 1 < len(t), "spun back above the threshold by the end"
+    t_detumbled = t[above[-1] + 1]
+    # below the threshold from then on for the whole hold (one record interval of slack:
+    # the stop is checked at records), and the stop condition ended the run
+    assert t[-1] - t_detumbled >= stop["hold"] - scene["run"]["record_interval"]
+    assert result.status == "stopped"
