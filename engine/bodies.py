@@ -28,6 +28,19 @@ HINGE = 2
 FREE = 3
 
 
+@njit(cache=True, inline="always")
+def push_body(bf, btq, k, rx, ry, rz, Fx, Fy, Fz):
+    """Add the force F, applied at r from body k's centre of mass, to the body's force and
+    torque (r x F) accumulators: the scatter of every contact force onto a body (a reaction
+    is pushed as -F, which is bit-identical to subtracting F)."""
+    bf[k, 0] += Fx
+    bf[k, 1] += Fy
+    bf[k, 2] += Fz
+    btq[k, 0] += ry * Fz - rz * Fy
+    btq[k, 1] += rz * Fx - rx * Fz
+    btq[k, 2] += rx * Fy - ry * Fx
+
+
 @item_kernel
 def _free_rotate(q, L, Ip, k, h):
     """Torque-free rotation of body k over time h; q and the world momentum L[k] in place."""

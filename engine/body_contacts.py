@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 from numba import njit, prange
 
-from .bodies import FIXED, KINEMATIC
+from .bodies import FIXED, KINEMATIC, push_body
 from .bonds import PARALLEL_MIN
 from .contact_law import (clear_history, contact_force, contact_with_history,
                           normal_stiffness, smoothstep)
@@ -327,6 +326,12 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         active[slot] = 0
         dweight = 0.0
         inside = False
+        # an edge contact's fade towards the faces' planes (``edge_face_fade``): chi, and its
+        # gradient with respect to the segment's axis d1 = l1 - l0 (body frame)
+        chi = 1.0
+        cgx = 0.0
+        cgy = 0.0
+        cgz = 0.0
         if slot_k == 1 and seg_has_next[sg]:
             clear_history(ft, slot, friction)
             continue
@@ -392,6 +397,11 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                 weight = smoothstep(min(s, 1.0 - s) / BODY_CROSS_END)
                 dweight = (_dsmooth01(min(s, 1.0 - s) / BODY_CROSS_END) / BODY_CROSS_END
                            * (1.0 if s < 0.5 else -1.0))
+                if tri >= 0 and _holds_edge(u, vv, ww):
+                    chi, cgx, cgy, cgz = edge_face_fade(l0, l1, tri, u, vv, ww, tnormal,
+                                                        pnormal)
+                    weight *= chi
+                    dweight *= chi
             if tri < 0 or weight <= 0.0:
                 clear_history(ft, slot, friction)
                 continue
@@ -491,6 +501,23 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             else:
                 _mesh_fade_forces(l0, l1, s, u, vv, ww, verts[tris[tri, 0]],
                                   verts[tris[tri, 1]], verts[tris[tri, 2]], g, xf[slot])
+                if chi < 1.0:
+                    # and with the angle fade chi(d1): -1/2 w(s) k ov^2 grad chi, a couple on
+                    # the segment's nodes (chi depends on d1 = l1 - l0 only) whose reaction
+                    # on the body is the torque d1 x (that force on node 1)'s opposite
+                    h = 0.5 * (weight / chi) * k0 * ov * ov
+                    xf[slot, 0, 0] += h * cgx
+                    xf[slot, 0, 1] += h * cgy
+                    xf[slot, 0, 2] += h * cgz
+                    xf[slot, 1, 0] -= h * cgx
+                    xf[slot, 1, 1] -= h * cgy
+                    xf[slot, 1, 2] -= h * cgz
+                    dx1 = l1[0] - l0[0]
+                    dy1 = l1[1] - l0[1]
+                    dz1 = l1[2] - l0[2]
+                    xf[slot, 3, 0] += h * (dy1 * cgz - dz1 * cgy)
+                    xf[slot, 3, 1] += h * (dz1 * cgx - dx1 * cgz)
+                    xf[slot, 3, 2] += h * (dx1 * cgy - dy1 * cgx)
                 for row in range(4):
                     xf[slot, row, 0], xf[slot, row, 1], xf[slot, row, 2] = qrot(
                         qw, qx, qy, qz, xf[slot, row, 0], xf[slot, row, 1], xf[slot, row, 2])
@@ -519,12 +546,76 @@ def _point_fade_forces(x0x, x0y, x0z, x1x, x1y, x1z, cx, cy, cz, s, g, out):
         out[0, a] = -(out[1, a] + out[2, a])
 
 
-# The edge case of ``_mesh_fade_forces`` is off: its grad s grows like 1 / sin^2 of the angle
-# between the segment and the edge, and on the 60 deg wedge study it moved the force at 33 mm
-# by -8 % (9.29 -> 8.55 N) while leaving 0-20 mm unchanged; an edge contact needs an angle fade
-# (as the bristle-bristle crossing has) before its exact gradient can be used. Checked by
-# tests/engine/test_body_candidates.py either way.
-EDGE_FADE_GRADIENT = False
+# An edge contact between a segment's nodes fades out as the segment turns parallel to either
+# face of the edge: chi = S(c_F) S(c_G), c the squared sine of the angle between the segment
+# and the face's plane, S the smoothstep from EDGE_FACE_SIN2_LO (0: no contact) to
+# EDGE_FACE_SIN2_HI (0.01, 5.7 deg: full contact). Two reasons:
+#   * the closest point's parameter s moves like 1 / sin^2 of the angle between the segment
+#     and the edge (``_edge_fade_forces``), and that angle is at least the one between the
+#     segment and either face's plane (the edge lies in both); S(c) <= 3 (c / 0.01)^2, so
+#     chi grad s stays bounded (chi / c <= 113) and vanishes with the angle;
+#   * the closest point leaves an edge for a face's interior exactly when the segment lies
+#     parallel to that face (the axis-to-edge direction then reaches the face's normal, and
+#     the axis is perpendicular to it): an edge contact still at full weight there would vanish
+#     at once, a jump of its energy. Faded, it hands over to the node contacts (a segment lying
+#     on a face touches it at its nodes), continuously. Flat edges (between coplanar
+#     triangles) are then never counted: a segment whose closest point lies on one is parallel
+#     to the face.
+# The band is narrow because the node on the face's side is ``l sin(angle)`` above the face
+# when the segment rests on the edge at a distance l from it: with the bristle-bristle
+# crossing's band (sin^2 0.04 to 0.10) a box's edge let a bristle lying at 15 deg to a face
+# sink to 0.78 of its radius (docs/stability.md).
+EDGE_FACE_SIN2_LO = 0.0
+EDGE_FACE_SIN2_HI = 0.01
+
+
+@item_kernel
+def _holds_edge(u, v, w):
+    """Whether barycentric weights (u, v, w) put a triangle's point on an edge's interior
+    (exactly two above the tolerance ``feature_normal`` uses)."""
+    tiny = 1e-9
+    return (1 if u > tiny else 0) + (1 if v > tiny else 0) + (1 if w > tiny else 0) == 2
+
+
+@item_kernel
+def edge_face_fade(l0, l1, tri, u, v, w, tnormal, pnormal):
+    """(chi, dchi/dd1) of a segment l0-l1 (body frame, d1 = l1 - l0) against the edge of
+    triangle ``tri`` that holds the point with weights (u, v, w): chi = S(c_F) S(c_G), with
+    c = (d1.n)^2 / d1.d1 the squared sine of the angle between the segment and a face's plane,
+    S the smoothstep from ``EDGE_FACE_SIN2_LO`` to ``EDGE_FACE_SIN2_HI``, n_F the triangle's
+    normal and n_G the other face's, recovered from the edge's pseudo-normal m (the bisector
+    of n_F and n_G: n_G = 2 (m.n_F) m - n_F; a boundary edge of an open mesh has m = n_F,
+    hence n_G = n_F)."""
+    tiny = 1e-9
+    if w <= tiny:
+        row = 1
+    elif u <= tiny:
+        row = 2
+    else:
+        row = 3
+    fx, fy, fz = tnormal[tri, 0], tnormal[tri, 1], tnormal[tri, 2]
+    mx, my, mz = pnormal[tri, row, 0], pnormal[tri, row, 1], pnormal[tri, row, 2]
+    mf = 2.0 * (mx * fx + my * fy + mz * fz)
+    gx, gy, gz = mf * mx - fx, mf * my - fy, mf * mz - fz
+    dx = l1[0] - l0[0]
+    dy = l1[1] - l0[1]
+    dz = l1[2] - l0[2]
+    a = dx * dx + dy * dy + dz * dz
+    band = EDGE_FACE_SIN2_HI - EDGE_FACE_SIN2_LO
+    pf = dx * fx + dy * fy + dz * fz
+    pg = dx * gx + dy * gy + dz * gz
+    cf = pf * pf / a
+    cg = pg * pg / a
+    sf = smoothstep((cf - EDGE_FACE_SIN2_LO) / band)
+    sg = smoothstep((cg - EDGE_FACE_SIN2_LO) / band)
+    chi = sf * sg
+    # grad_d1 c = 2 (d1.n) n / a - 2 c d1 / a
+    kf = _dsmooth01((cf - EDGE_FACE_SIN2_LO) / band) / band * sg
+    kg = _dsmooth01((cg - EDGE_FACE_SIN2_LO) / band) / band * sf
+    ox = (kf * (2.0 * pf * fx - 2.0 * cf * dx) + kg * (2.0 * pg * gx - 2.0 * cg * dx)) / a
+    oy = (kf * (2.0 * pf * fy - 2.0 * cf * dy) + kg * (2.0 * pg * gy - 2.0 * cg * dy)) / a
+    oz = (kf * (2.0 * pf * fz - 2.0 * cf * dz) + kg * (2.0 * pg * gz - 2.0 * cg * dz)) / a
+    return chi, ox, oy, oz
 
 
 @item_kernel
@@ -548,8 +639,6 @@ def _mesh_fade_forces(l0, l1, s, u, v, w, va, vb, vc, g, out):
         out[3, 1] = p[2] * out[2, 0] - p[0] * out[2, 2]
         out[3, 2] = p[0] * out[2, 1] - p[1] * out[2, 0]
         return
-    if not EDGE_FADE_GRADIENT:
-        return
     # an edge A-B holding the closest point (1 - t) A + t B
     if u <= tiny:
         _edge_fade_forces(l0, l1, s, vb, vc, w / (v + w), g, out)
@@ -559,12 +648,14 @@ def _mesh_fade_forces(l0, l1, s, u, v, w, va, vb, vc, g, out):
         _edge_fade_forces(l0, l1, s, va, vb, v / (u + v), g, out)
 
 
-@njit(cache=True)
+@item_kernel
 def _edge_fade_forces(l0, l1, s, A, B, t, g, out):
     """-g grad s for the segment l0-l1 and the mesh edge A-B whose closest points are at s
     and t (interior): s and t solve the closest-point conditions r.d1 = r.d2 = 0, whose
-    derivatives give grad s (as in ``contacts.crossing_weight_forces``). Rows as in
-    ``_mesh_fade_forces``."""
+    derivatives give grad s (as in ``contacts.crossing_weight_forces``); it grows like
+    1 / sin^2 of the angle between them, which ``edge_face_fade`` keeps away from 0. Rows as
+    in ``_mesh_fade_forces``; the body's force and torque are the reactions of the nodes'
+    (s does not change when the segment and the body move or turn together)."""
     d1 = (l1[0] - l0[0], l1[1] - l0[1], l1[2] - l0[2])
     d2 = (B[0] - A[0], B[1] - A[1], B[2] - A[2])
     a11 = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
@@ -572,25 +663,22 @@ def _edge_fade_forces(l0, l1, s, A, B, t, g, out):
     a12 = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
     det = a12 * a12 - a11 * a22
     if -det <= 1e-12 * a11 * a22:
-        return  # parallel: s is not defined by the conditions (left without the term)
-    fA = np.zeros(3)
-    fB = np.zeros(3)
+        # parallel: s is not defined by the conditions (the fade is 0 long before)
+        out[:, :] = 0.0
+        return
     for c in range(3):
         r = l0[c] + s * d1[c] - A[c] - t * d2[c]
         # closest-point conditions g1 = r.d1 = 0, g2 = r.d2 = 0: their derivatives per node
-        e1 = ((1.0 - s) * d1[c] - r, s * d1[c] + r, -(1.0 - t) * d1[c], -t * d1[c])
-        e2 = ((1.0 - s) * d2[c], s * d2[c], -(1.0 - t) * d2[c] - r, r - t * d2[c])
-        dsn = ((a22 * e1[0] - a12 * e2[0]) / det, (a22 * e1[1] - a12 * e2[1]) / det,
-               (a22 * e1[2] - a12 * e2[2]) / det, (a22 * e1[3] - a12 * e2[3]) / det)
-        out[0, c] = -g * dsn[0]
-        out[1, c] = -g * dsn[1]
-        fA[c] = -g * dsn[2]
-        fB[c] = -g * dsn[3]
-    for c in range(3):
-        out[2, c] = fA[c] + fB[c]
-    out[3, 0] = A[1] * fA[2] - A[2] * fA[1] + B[1] * fB[2] - B[2] * fB[1]
-    out[3, 1] = A[2] * fA[0] - A[0] * fA[2] + B[2] * fB[0] - B[0] * fB[2]
-    out[3, 2] = A[0] * fA[1] - A[1] * fA[0] + B[0] * fB[1] - B[1] * fB[0]
+        e10 = (1.0 - s) * d1[c] - r
+        e11 = s * d1[c] + r
+        e20 = (1.0 - s) * d2[c]
+        e21 = s * d2[c]
+        out[0, c] = -g * (a22 * e10 - a12 * e20) / det
+        out[1, c] = -g * (a22 * e11 - a12 * e21) / det
+        out[2, c] = -(out[0, c] + out[1, c])
+    out[3, 0] = -(l0[1] * out[0, 2] - l0[2] * out[0, 1] + l1[1] * out[1, 2] - l1[2] * out[1, 1])
+    out[3, 1] = -(l0[2] * out[0, 0] - l0[0] * out[0, 2] + l1[2] * out[1, 0] - l1[0] * out[1, 2])
+    out[3, 2] = -(l0[0] * out[0, 1] - l0[1] * out[0, 0] + l1[0] * out[1, 1] - l1[1] * out[1, 0])
 
 
 @njit(cache=True, inline="always")
@@ -623,15 +711,8 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
         Fz = fc[c, 2]
         add_segment_force(x, f, t, bi[sg], bj[sg], par_s[c], Fx, Fy, Fz, cp[c, 0], cp[c, 1],
                           cp[c, 2])
-        rx = cp[c, 0] - bpos[k, 0]
-        ry = cp[c, 1] - bpos[k, 1]
-        rz = cp[c, 2] - bpos[k, 2]
-        bf[k, 0] -= Fx
-        bf[k, 1] -= Fy
-        bf[k, 2] -= Fz
-        btq[k, 0] -= ry * Fz - rz * Fy
-        btq[k, 1] -= rz * Fx - rx * Fz
-        btq[k, 2] -= rx * Fy - ry * Fx
+        push_body(bf, btq, k, cp[c, 0] - bpos[k, 0], cp[c, 1] - bpos[k, 1],
+                  cp[c, 2] - bpos[k, 2], -Fx, -Fy, -Fz)
         # the fade's and taper's part of the energy gradient (``_point_fade_forces``)
         i0 = bi[sg]
         i1 = bj[sg]
@@ -763,18 +844,8 @@ def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, bo
             ft[k1, k2, 0] = f0
             ft[k1, k2, 1] = f1
             ft[k1, k2, 2] = f2
-            bf[a, 0] += Fx
-            bf[a, 1] += Fy
-            bf[a, 2] += Fz
-            btq[a, 0] += ray * Fz - raz * Fy
-            btq[a, 1] += raz * Fx - rax * Fz
-            btq[a, 2] += rax * Fy - ray * Fx
-            bf[b, 0] -= Fx
-            bf[b, 1] -= Fy
-            bf[b, 2] -= Fz
-            btq[b, 0] -= rby * Fz - rbz * Fy
-            btq[b, 1] -= rbz * Fx - rbx * Fz
-            btq[b, 2] -= rbx * Fy - rby * Fx
+            push_body(bf, btq, a, rax, ray, raz, Fx, Fy, Fz)
+            push_body(bf, btq, b, rbx, rby, rbz, -Fx, -Fy, -Fz)
             count += 1
             e_sto += sto
             e_dis += dis

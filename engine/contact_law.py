@@ -158,8 +158,13 @@ def smoothstep(u):
 
 @njit(cache=True, inline="always")
 def clear_history(ft, slot, friction):
-    """A contact slot that is not touching forgets its tangential spring."""
-    if friction:
+    """A contact slot that is not touching forgets its tangential spring, except within a
+    quasi-static increment (``SLIP_FROZEN``): there the kept spring is the trial of the net
+    tangential displacement since the last commit, and a contact that lets go during the
+    increment's move and touches again in its relaxation keeps it (else its friction would
+    follow only the slide since it touched again: the first millimetre of the wedge study,
+    docs/accuracy.md). The commit's step forgets it if the contact is still open then."""
+    if friction == SLIP_EACH_STEP:
         ft[slot, 0] = 0.0
         ft[slot, 1] = 0.0
         ft[slot, 2] = 0.0

@@ -46,7 +46,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .bodies import FIXED, KINEMATIC
+from .bodies import FIXED, KINEMATIC, push_body
 from .body_contacts import closest_triangle, deep_closest, feature_normal
 from .contact_law import contact_force, normal_stiffness
 from .jit import item_kernel
@@ -352,18 +352,8 @@ def _apply_hits(s, t, n, hits, kn, kt, mu, zeta, meff, length, bv, bw, ft, frict
             ft[i, t, 0] = f0
             ft[i, t, 1] = f1
             ft[i, t, 2] = f2
-        bf[s, 0] += Fx
-        bf[s, 1] += Fy
-        bf[s, 2] += Fz
-        btq[s, 0] += rsy * Fz - rsz * Fy
-        btq[s, 1] += rsz * Fx - rsx * Fz
-        btq[s, 2] += rsx * Fy - rsy * Fx
-        bf[t, 0] -= Fx
-        bf[t, 1] -= Fy
-        bf[t, 2] -= Fz
-        btq[t, 0] -= ey * Fz - ez * Fy
-        btq[t, 1] -= ez * Fx - ex * Fz
-        btq[t, 2] -= ex * Fy - ey * Fx
+        push_body(bf, btq, s, rsx, rsy, rsz, Fx, Fy, Fz)
+        push_body(bf, btq, t, ex, ey, ez, -Fx, -Fy, -Fz)
         stats[0] += 1
         stats[1] += sto
         stats[2] += dis

@@ -3,6 +3,7 @@ inside a closed body) and complete (deep penetration into a closed body is liste
 out), checked against brute-force distances from trimesh, independent of the engine's grid.
 """
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -286,7 +287,7 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     differences of s itself (numpy, independent of the kernel), on the segment's nodes and
     the feature's vertices, and the body's torque as the sum of r x F. Bug caught: a wrong
     sign or index in the differentiated closest-point conditions."""
-    from engine.body_contacts import _edge_fade_forces, _mesh_fade_forces
+    from engine.body_contacts import _mesh_fade_forces
 
     l0, l1 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.2, 0.1])
     A, B = np.array([0.4, -0.5, 0.3]), np.array([0.6, 0.7, 0.2])
@@ -303,9 +304,8 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     else:
         s, t = _closest_s_edge(l0, l1, A, B)
         assert 0 < s < 1 and 0 < t < 1
-        # the edge's term itself (``_mesh_fade_forces`` calls it only where
-        # EDGE_FADE_GRADIENT is on: see there)
-        _edge_fade_forces(l0, l1, s, A, B, t, g, out)
+        # through the dispatcher, with A-B as edge ab of triangle (A, B, C): w = 0
+        _mesh_fade_forces(l0, l1, s, 1.0 - t, t, 0.0, A, B, B + 1.0, g, out)
 
         def s_of(p):
             return _closest_s_edge(*p)[0]
@@ -329,3 +329,60 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     np.testing.assert_allclose(out[3], torque, rtol=1e-6, atol=1e-9)
     # translation invariance of s: the forces sum to zero
     np.testing.assert_allclose(out[0] + out[1] + out[2], 0.0, atol=1e-12)
+
+
+def _edge_face_fade_numpy(d1, nF, nG, lo=0.0, hi=0.01):
+    """chi = S(sin^2 to face F's plane) S(... face G's), S the smoothstep over [lo, hi]."""
+    def smooth(c):
+        u = min(max((c - lo) / (hi - lo), 0.0), 1.0)
+        return u * u * (3.0 - 2.0 * u)
+    a = d1 @ d1
+    return smooth((d1 @ nF) ** 2 / a) * smooth((d1 @ nG) ** 2 / a)
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 2.0, 4.0, 5.0, 40.0, 90.0])
+def test_edge_face_fade_and_its_gradient(tilt_deg):
+    """An edge contact's angle fade: chi is the product of the smoothsteps of the squared
+    sines between the segment and the edge's two faces (the second face found from the edge's
+    pseudo-normal), and the kernel's gradient matches central finite differences of that
+    numpy chi. Two faces of a 60 deg wedge's apex (edge along x); the segment crosses the
+    edge, tilted by ``tilt_deg`` from face F's plane. Bugs caught: the other face's normal
+    reflected the wrong way (the fade of a knife edge's or a flat edge's neighbour), a wrong
+    sign or factor in dchi/dd1."""
+    from engine.body_contacts import edge_face_fade
+    from engine.meshes import pseudo_normals
+
+    half = math.radians(30.0)
+    # apex edge A-B along x; faces F = (A, B, C) and G = (B, A, D) below it, 60 deg apart
+    A, B = np.array([-1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    C = np.array([0.0, math.sin(half), math.cos(half)])
+    D = np.array([0.0, -math.sin(half), math.cos(half)])
+    verts = np.array([A, B, C, D])
+    tris = np.array([[0, 1, 2], [1, 0, 3]])
+    pn = pseudo_normals(verts, tris)
+    tnormal = pn[:, 0].copy()
+    nF, nG = pn[0, 0], pn[1, 0]
+    # a direction in face F's plane across the edge, tilted out of it by tilt_deg
+    along = (C - 0.5 * (A + B))
+    along /= np.linalg.norm(along)
+    tilt = math.radians(tilt_deg)
+    d1 = 2.0 * (math.cos(tilt) * (0.6 * along + 0.8 * np.array([1.0, 0, 0]))
+                / np.linalg.norm(0.6 * along + 0.8 * np.array([1.0, 0, 0]))
+                + math.sin(tilt) * nF)
+    l0 = np.array([0.1, 0.2, -0.3]) - 0.5 * d1
+    l1 = l0 + d1
+    # the closest point on edge ab of triangle 0: w = 0
+    chi, gx, gy, gz = edge_face_fade(l0, l1, 0, 0.5, 0.5, 0.0, tnormal, pn)
+    assert chi == pytest.approx(_edge_face_fade_numpy(d1, nF, nG), rel=1e-12, abs=1e-15)
+    h = 1e-7
+    fd = np.array([(_edge_face_fade_numpy(d1 + h * e, nF, nG)
+                    - _edge_face_fade_numpy(d1 - h * e, nF, nG)) / (2 * h)
+                   for e in np.eye(3)])
+    # 1e-6: central differences of a smooth function at h = 1e-7 are good to ~1e-8
+    np.testing.assert_allclose([gx, gy, gz], fd, rtol=1e-6, atol=1e-8)
+    if tilt_deg == 0.0:
+        assert chi == pytest.approx(0.0, abs=1e-20)  # parallel to face F: no edge contact
+    elif tilt_deg < 5.7:
+        assert 0.0 < chi < 1.0  # within the band (sin^2 < 0.01)
+    else:
+        assert chi > 0.0

@@ -17,7 +17,8 @@ PER_ITEM = {
                "crossing_weight_forces"),
     body_contacts: ("_bristle_body_candidate", "closest_triangle", "nearest_triangle",
                     "deep_closest", "feature_normal", "_point_fade_forces",
-                    "_mesh_fade_forces"),
+                    "_mesh_fade_forces", "_edge_fade_forces", "_holds_edge",
+                    "edge_face_fade"),
     stepper: ("predicted_displacement", "check_state", "local_damping", "add_gravity",
               "add_loads", "roots_follow", "roots_to_bodies"),
     bodies: ("bodies_half_kick", "bodies_drift", "kinematic_state"),
@@ -41,7 +42,7 @@ def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():
         contacts: {"segment_bounds", "build_pair_list", "carry_history",
                    "bristle_bristle_narrow", "scatter_bristle_bristle"},
         body_contacts: {"build_body_candidates", "carry_body_history", "bristle_body_narrow",
-                        "scatter_bristle_body", "body_body_contacts", "_edge_fade_forces"},
+                        "scatter_bristle_body", "body_body_contacts"},
         # once per step (allocates each pair's hit buffers), and the build-time check
         mesh_contact: {"mesh_mesh_contacts", "_deepest_points"},
     }
