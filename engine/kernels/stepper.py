@@ -31,13 +31,13 @@ from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_his
                        scatter_bristle_bristle, segment_bounds)
 from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot
-from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
-                    ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
-                    FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
-                    FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK,
-                    OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY, SLOT_BONDS,
-                    SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS, SLOT_EXTERNAL,
-                    SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
+from ..state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP,
+                     ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS, ACC_STEPS, ACC_TIME,
+                     ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED, FAIL_NODE_SPEED,
+                     FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE, FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY,
+                     FAIL_OVERLAP_BODYBODY, OK, OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY,
+                     SLOT_BONDS, SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS,
+                     SLOT_EXTERNAL, SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
 
 
 @njit(cache=True)
