@@ -12,7 +12,7 @@ ENV PYTHONUNBUFFERED=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1 \
     BRUSH_STUDIO_DATA=/data
 
-# a non-root user owns the source tree (numba's kernel cache lives in engine/__pycache__)
+# a non-root user owns the source tree (numba's kernel cache lives in engine/kernels/__pycache__)
 RUN useradd --create-home --uid 1000 brush \
     && mkdir -p /app /data \
     && chown brush:brush /app /data

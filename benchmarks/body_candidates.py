@@ -40,8 +40,8 @@ def wedge_scene(depth: float, speed: float = 0.1, n_nodes: int = 5):
 def segments_within_skin(system) -> int:
     """Segments whose capsule (largest end radius) is within the skin of a body triangle,
     by brute force over every (segment, triangle) pair (independent of the engine's grid)."""
-    from engine.geometry import segment_triangle_closest
-    from engine.rotations import qrot_inv
+    from engine.kernels.geometry import segment_triangle_closest
+    from engine.kernels.rotations import qrot_inv
     bd, bn, nd = system.bodies, system.bonds, system.nodes
     skin = float(system.limits[3])
     count = 0

@@ -2,10 +2,10 @@
 
 Numba re-validates a cached function against its own file only, not against the functions
 it calls in other files, so an edited kernel could be run through a stale caller. At import
-we hash every engine source file that holds compiled code (those that import numba, and the
-state bundles they are typed on) and drop
-all cached kernels when the hash changed; editing the numba-free modules (the spec, the
-build, the run loop in Python) keeps the cache.
+we hash every engine source file that holds compiled code (the kernels in ``engine/kernels/``,
+any other engine module that imports numba, and the state bundles they are typed on) and drop
+all cached kernels (``engine/kernels/__pycache__``) when the hash changed; editing the
+numba-free modules (the spec, the build, the run loop in Python) keeps the cache.
 """
 from __future__ import annotations
 
@@ -15,22 +15,24 @@ from pathlib import Path
 _HERE = Path(__file__).parent
 
 
-def ensure_fresh_cache() -> None:
+def ensure_fresh_cache(root: Path = _HERE) -> None:
+    """Drop the cached kernels under ``root/kernels/__pycache__`` when a numba source of the
+    engine at ``root`` changed since the stamp there was written."""
     digest = hashlib.sha256()
-    for path in sorted(_HERE.glob("*.py")):
+    for path in sorted(root.glob("*.py")) + sorted((root / "kernels").glob("*.py")):
         text = path.read_bytes()
         if not (b"from numba" in text or b"import numba" in text or path.name == "state.py"):
             continue
-        digest.update(path.name.encode())
+        digest.update(path.relative_to(root).as_posix().encode())
         digest.update(text)
-    stamp = _HERE / "__pycache__" / "numba-source.sha256"
+    cache_dir = root / "kernels" / "__pycache__"
+    stamp = cache_dir / "numba-source.sha256"
     want = digest.hexdigest()
     try:
         if stamp.read_text() == want:
             return
     except OSError:
         pass
-    cache_dir = _HERE / "__pycache__"
     try:
         cache_dir.mkdir(exist_ok=True)
         for f in list(cache_dir.glob("*.nbi")) + list(cache_dir.glob("*.nbc")):

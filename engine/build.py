@@ -20,15 +20,15 @@ from typing import Optional
 import numpy as np
 
 from . import overlap
-from .bodies import FIXED
+from .kernels.bodies import FIXED
 from .build_bodies import BodyPart, build_bodies, start_on_profiles
 from .build_bristles import BristlePart, BrushInfo, build_bristles
 from .build_contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from .build_loads import build_loads, build_mission
-from .contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
+from .kernels.contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
 from .errors import SceneError
 from .layout import quat_to_matrix
-from .mesh_contact import initial_overlap
+from .kernels.mesh_contact import initial_overlap
 from .spec import Scene
 from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
                     PairList, Roots, Tables, assembled_stages)
@@ -261,7 +261,7 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
 def _pair_list(cap: int, friction: bool) -> PairList:
     """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; tangential
     history only where there is friction."""
-    from .contacts import NSLOT
+    from .kernels.contacts import NSLOT
     c = cap * NSLOT
     h = c if friction else 1
     return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
@@ -274,7 +274,7 @@ def _pair_list(cap: int, friction: bool) -> PairList:
 
 def _body_list(cap: int, friction: bool) -> BodyList:
     """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each."""
-    from .body_contacts import BSLOT
+    from .kernels.body_contacts import BSLOT
     c = cap * BSLOT
     h = c if friction else 1
     return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
@@ -296,7 +296,7 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.a[:n] = old.a[:n]
         new.b[:n] = old.b[:n]
         if system.flags.friction_bristle:
-            from .contacts import NSLOT
+            from .kernels.contacts import NSLOT
             new.ft[:n * NSLOT] = old.ft[:n * NSLOT]
         new.n[0] = n
         system.pairs = new
@@ -308,7 +308,7 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.b[:n] = old.b[:n]
         new.deep[:n] = old.deep[:n]
         if system.flags.friction_body:
-            from .body_contacts import BSLOT
+            from .kernels.body_contacts import BSLOT
             new.ft[:n * BSLOT] = old.ft[:n * BSLOT]
         new.n[0] = n
         system.body_pairs = new
@@ -316,7 +316,7 @@ def grow_lists(system: System, which: int, needed: int) -> None:
 
 def initial_lists(system: System) -> None:
     from .state import OK
-    from .stepper import rebuild_lists
+    from .kernels.stepper import rebuild_lists
     while True:
         code = rebuild_lists(system.nodes, system.bonds, system.bodies, system.pairs,
                              system.body_pairs, system.flags, system.limits[3])

@@ -14,11 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import meshes
-from .bodies import FIXED, FREE, HINGE, KINEMATIC
+from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
 from .errors import SceneError
 from .layout import quat_conj, quat_mul, quat_to_matrix
-from .mesh_contact import contact_points, point_contact_length
-from .rotations import matrix_to_quat, qlog
+from .kernels.mesh_contact import contact_points, point_contact_length
+from .kernels.rotations import matrix_to_quat, qlog
 from .spec import Scene
 from .state import Bodies
 
@@ -117,7 +117,8 @@ class _Surfaces:
         self.grid_start, self.grid_tris = [], []
         self.points = []
         self.point_start = np.zeros(K + 1, np.int64)
-        self.point_len = np.zeros(K)   # engine.mesh_contact: radius of a point's share of surface
+        # radius of a point's share of surface (engine.kernels.mesh_contact)
+        self.point_len = np.zeros(K)
         self.v_off = self.t_off = self.c_off = 0
 
     def add(self, k: int, vp: np.ndarray, tris: np.ndarray, spacing, field: str) -> None:
@@ -197,7 +198,7 @@ def _set_motion(k: int, body, a: dict, vals: np.ndarray, geo, q_p: np.ndarray, o
         a["motion"][k] = FREE
         a["v"][k] = v0
         a["w"][k] = w0
-        # w0 is relative to the (Hill) frame; L is inertial (engine.orbit)
+        # w0 is relative to the (Hill) frame; L is inertial (engine.kernels.orbit)
         a["L"][k] = I_world @ (w0 + np.array([0.0, 0.0, orbit_n])) if orbit_n else I_world @ w0
     elif m.type == "hinge":
         a["motion"][k] = HINGE
@@ -293,7 +294,7 @@ def build_bodies(scene: Scene, mat_index: dict, orbit_n: float, warnings: list) 
 
 def start_on_profiles(bodies: Bodies) -> None:
     """Put the kinematic bodies on their profile at t = 0, and record the build pose."""
-    from .bodies import kinematic_state
+    from .kernels.bodies import kinematic_state
     for k in range(len(bodies.motion)):
         if bodies.motion[k] == KINEMATIC:
             kinematic_state(k, 0.0, bodies.seg_start, bodies.t0, bodies.t1, bodies.p0,

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bodies import FIXED, FREE, HINGE, KINEMATIC
+from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
 from .errors import SceneError
-from .mesh_contact import mesh_contact_stiffness, pair_stiffness
+from .kernels.mesh_contact import mesh_contact_stiffness, pair_stiffness
 from .timestep import BRISTLE_CONTACTS_PER_NODE
 
 

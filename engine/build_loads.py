@@ -1,5 +1,5 @@
 """Build, loads and the mission: forces on bristle nodes (``Loads``), and the mission layer
-(``Mission``: the orbit, the controllers of engine.control, constant external loads on
+(``Mission``: the orbit, the controllers of engine.kernels.control, constant external loads on
 bodies)."""
 from __future__ import annotations
 
@@ -44,8 +44,8 @@ def build_loads(scene: Scene, brushes: list, inv_mass: np.ndarray) -> Loads:
 
 def build_mission(scene: Scene, orbit_n: float, body_names: list[str],
                   shape_to_body: list) -> Mission:
-    """The mission layer's arrays: orbit, controllers (engine.control), external loads."""
-    from . import control as C
+    """The mission layer's arrays: orbit, controllers (engine.kernels.control), external loads."""
+    from .kernels import control as C
     orbit = scene.environment.orbit
     orbit_arr = np.array([orbit_n, 1.0 if (orbit is not None and orbit.gravity_gradient)
                           else 0.0])

@@ -12,7 +12,7 @@ relative to its body's shape frame (the body's ``pose``).
 
 numpy only (no numba, no trimesh), so that the studio can import it. Quaternions are
 ``[w, x, y, z]`` and rotate local coordinates into world coordinates; the numba kernels of
-``engine.rotations`` are the step loop's versions of the same formulas.
+``engine.kernels.rotations`` are the step loop's versions of the same formulas.
 
 Every per-row product goes through numpy's ``matmul`` on stacks of rows, which calls, per
 row, the same routine as ``R @ v`` and ``np.dot(v, v)`` on one row: the layout is the same

@@ -13,7 +13,7 @@ from typing import Optional, Union
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
-from .bodies import KINEMATIC, kinematic_state
+from .kernels.bodies import KINEMATIC, kinematic_state
 from .build import System
 from .build_bodies import kinematic_segments
 from .errors import SceneError

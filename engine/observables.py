@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bodies import FREE, HINGE
+from .kernels.bodies import FREE, HINGE
 from .build import System
-from .orbit import orbit_energy
+from .kernels.orbit import orbit_energy
 from .layout import quat_to_matrix
 from .state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
 
 #: per controller: (name, per-frame shape); forces and torques in the body's mesh axes,
-#: impulses and errors in world axes (engine.control)
+#: impulses and errors in world axes (engine.kernels.control)
 CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
                         ("commanded_torque", (3,)), ("applied_torque", (3,)),
                         ("impulse", (3,)), ("angular_impulse", (3,)), ("delta_v", ()),
@@ -25,7 +25,7 @@ CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
 
 def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
     """Controller c's current record (see CONTROLLER_CHANNELS)."""
-    from . import control as C
+    from .kernels import control as C
     cs = system.mission.ctl_state[c]
     slots = {"commanded_force": C.S_CMD_F, "applied_force": C.S_APP_F,
              "commanded_torque": C.S_CMD_T, "applied_torque": C.S_APP_T,
@@ -107,7 +107,7 @@ def bending_moments(system: System) -> np.ndarray:
     """Bending moment magnitude per bond at its midpoint (N m), from the current state: the
     bond kernel's own value (the gradient of the bond energy in the bending rotation,
     ``|k_b phi + k_sb e_z x d|``, which includes a tapered bond's shear coupling)."""
-    from .bonds import bond_forces
+    from .kernels.bonds import bond_forces
     nd, bn = system.nodes, system.bonds
     B = bn.i.shape[0]
     bend = np.zeros(B)

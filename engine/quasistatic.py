@@ -28,7 +28,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .beam_theory import circle_second_moment, rod_frequency
-from .contact_law import SLIP_EACH_STEP, SLIP_FROZEN
+from .kernels.contact_law import SLIP_EACH_STEP, SLIP_FROZEN
 from .run import run_steps
 
 

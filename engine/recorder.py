@@ -301,8 +301,8 @@ class Recorder:
 
 
 # ----------------------------------------------------------------------------- state channels
-#: body motion codes of engine.bodies, by code: the static ``bodies/motion_names`` stores them
-#: so that a reader needs no engine import to tell free bodies from fixed ones
+#: body motion codes of engine.kernels.bodies, by code: the static ``bodies/motion_names``
+#: stores them so that a reader needs no engine import to tell free bodies from fixed ones
 BODY_MOTION_NAMES = ("fixed", "kinematic", "hinge", "free")
 
 

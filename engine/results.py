@@ -448,12 +448,12 @@ class ResultFile:
 
 
     def _orbit_energy(self, nodes, bodies, n_frames: int) -> np.ndarray | float:
-        """The orbital part of the Jacobi integral (``engine.orbit.orbit_energy_terms``,
+        """The orbital part of the Jacobi integral (``engine.kernels.orbit.orbit_energy_terms``,
         the same function as the live ``engine.energies``): 0 without an orbit."""
         orbit = self.scene.environment.orbit
         if orbit is None or orbit.n == 0.0:
             return 0.0
-        from .orbit import orbit_energy_terms
+        from .kernels.orbit import orbit_energy_terms
         if nodes is not None:
             node_mass, node_x = nodes["mass"], nodes["position"]
         else:

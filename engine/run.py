@@ -24,7 +24,7 @@ from .observables import energies
 from .recorder import Recorder
 from .state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
                     OVERFLOW_PAIRS, STAGES, timed_slots)
-from .stepper import advance
+from .kernels.stepper import advance
 
 ENERGY_BALANCE_LIMIT = 1.0  # |drift of (total + dissipated - work)| / largest energy seen
 ENERGY_FLOOR = 1e-18  # J: below this every energy is round-off and the balance is not judged
@@ -245,7 +245,7 @@ def run_steps(system: System, n_steps: int) -> None:
 
 def _refresh_forces(system: System) -> None:
     """Evaluate bond energies of the initial state (no time advance)."""
-    from .bonds import bond_forces
+    from .kernels.bonds import bond_forces
     nd, bn = system.nodes, system.bonds
     bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0,
                 bn.cn, bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss, bn.bend,

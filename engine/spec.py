@@ -133,7 +133,7 @@ class Orbit(_Model):
         """The mean motion, rad/s."""
         if self.mean_motion is not None:
             return float(self.mean_motion)
-        from .orbit import mean_motion_from_altitude
+        from .kernels.orbit import mean_motion_from_altitude
         return mean_motion_from_altitude(self.altitude)
 
 

@@ -25,7 +25,7 @@ Bodies = namedtuple("Bodies", [
     "sphere_r", "bound_r", "watertight", "material", "collide", "pos_build", "q_build", "pos0",
     "verts", "tris", "tnormal", "pnormal", "grid_origin", "grid_cell", "grid_dims", "grid_base", "grid_start",
     "grid_tris", "ft_bb", "scratch", "scratch2",
-    # mesh-mesh contacts (engine.mesh_contact): first contact point of each body (K + 1),
+    # mesh-mesh contacts (engine.kernels.mesh_contact): first contact point of each body (K + 1),
     # the points (body frames), per-pair point stiffness (K, K; 0 = the pair does not touch)
     # and length, tangential history per (point, other body)
     "point_start", "points", "mesh_kn", "mesh_len", "ft_mesh"])
@@ -44,8 +44,8 @@ Loads = namedtuple("Loads", [
 Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity"])
 
 # the mission layer: ``orbit`` = [mean motion n (rad/s), gravity gradient on (1) or off (0)];
-# controllers (engine.control: ``ctl_index`` (C, 2), ``ctl_par``, ``ctl_state``); ``external``
-# (K, 6): constant force and torque on free bodies, world axes
+# controllers (engine.kernels.control: ``ctl_index`` (C, 2), ``ctl_par``, ``ctl_state``);
+# ``external`` (K, 6): constant force and torque on free bodies, world axes
 Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "external"])
 
 Flags = namedtuple("Flags", [

@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 import engine
-from engine.body_contacts import BSLOT, deep_closest, nearest_triangle
+from engine.kernels.body_contacts import BSLOT, deep_closest, nearest_triangle
 from engine.errors import InstabilityError
 from engine import spec_bodies
 from engine.meshes import shape_mesh
@@ -287,7 +287,7 @@ def test_mesh_fade_forces_are_minus_g_grad_s(feature):
     differences of s itself (numpy, independent of the kernel), on the segment's nodes and
     the feature's vertices, and the body's torque as the sum of r x F. Bug caught: a wrong
     sign or index in the differentiated closest-point conditions."""
-    from engine.body_contacts import _mesh_fade_forces
+    from engine.kernels.body_contacts import _mesh_fade_forces
 
     l0, l1 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.2, 0.1])
     A, B = np.array([0.4, -0.5, 0.3]), np.array([0.6, 0.7, 0.2])
@@ -349,7 +349,7 @@ def test_edge_face_fade_and_its_gradient(tilt_deg):
     edge, tilted by ``tilt_deg`` from face F's plane. Bugs caught: the other face's normal
     reflected the wrong way (the fade of a knife edge's or a flat edge's neighbour), a wrong
     sign or factor in dchi/dd1."""
-    from engine.body_contacts import edge_face_fade
+    from engine.kernels.body_contacts import edge_face_fade
     from engine.meshes import pseudo_normals
 
     half = math.radians(30.0)

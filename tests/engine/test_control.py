@@ -1,4 +1,4 @@
-"""Sampled PD/PID pose controllers (engine.control) against linear control theory:
+"""Sampled PD/PID pose controllers (engine.kernels.control) against linear control theory:
 the steady-state error under a constant disturbance, saturation per body axis, deadband."""
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.rotations import qlog
+from engine.kernels.rotations import qlog
 
 AL = {"youngs_modulus": 70e9, "density": 2700.0}
 MASS = 2.0
@@ -31,7 +31,7 @@ def _scene(controller, *, force=(0, 0, 0), torque=(0, 0, 0), duration=40.0, dt=0
 
 def _mesh_rotvec(system):
     # q_mesh = q_body q_bm; the box's mesh axes are its principal axes (diagonal inertia)
-    from engine import control as C
+    from engine.kernels import control as C
     q = system.bodies.q[0]
     qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
     from engine.layout import quat_mul as quat_mul_np

@@ -1,4 +1,4 @@
-"""Tests of engine/geometry.py: closest points of segments, points and triangles.
+"""Tests of engine/kernels/geometry.py: closest points of segments, points and triangles.
 
 References are independent of the module: dense sampling of the parameter domain followed by a
 bounded scipy minimisation of the squared distance from the best sample. The squared distance
@@ -17,16 +17,16 @@ import pytest
 from scipy.optimize import minimize
 
 try:
-    from engine import geometry as geo
+    from engine.kernels import geometry as geo
 except Exception:  # engine/__init__.py (written by others) may not import yet
     # Load the file alone, registered under its real name: numba's on-disk cache refers to
-    # the module as "engine.geometry" and re-imports it by that name when loading.
+    # the module as "engine.kernels.geometry" and re-imports it by that name when loading.
     import sys
 
-    _path = pathlib.Path(__file__).resolve().parents[2] / "engine" / "geometry.py"
-    _spec = importlib.util.spec_from_file_location("engine.geometry", _path)
+    _path = pathlib.Path(__file__).resolve().parents[2] / "engine" / "kernels" / "geometry.py"
+    _spec = importlib.util.spec_from_file_location("engine.kernels.geometry", _path)
     geo = importlib.util.module_from_spec(_spec)
-    sys.modules["engine.geometry"] = geo
+    sys.modules["engine.kernels.geometry"] = geo
     _spec.loader.exec_module(geo)
 
 

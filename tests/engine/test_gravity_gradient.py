@@ -1,4 +1,4 @@
-"""The gravity-gradient torque (engine.orbit, ``orbit.gravity_gradient``) against the
+"""The gravity-gradient torque (engine.kernels.orbit, ``orbit.gravity_gradient``) against the
 textbook component form and against the closed-form pitch libration it causes."""
 import math
 

@@ -1,5 +1,5 @@
 """The kernels the step loop and the contact loops call many times per step are compiled
-without numba's reference counting (``engine.jit.item_kernel``): with it, every call paid an
+without numba's reference counting (``engine.kernels.jit.item_kernel``): with it, every call paid an
 atomic increment and decrement per array argument, which was half of a wedge step
 (benchmarks/wedge_study.py; perf showed NRT_incref/NRT_decref at 47 % of the step loop).
 This checks the flag on each of them, so that a kernel rewritten with a plain ``njit`` is
@@ -10,7 +10,7 @@ import inspect
 
 import pytest
 
-from engine import bodies, body_contacts, contacts, mesh_contact, stepper
+from engine.kernels import bodies, body_contacts, contacts, mesh_contact, stepper
 
 PER_ITEM = {
     contacts: ("_pair_contacts", "point_segment_max_overlap", "best_of_neighbours",
@@ -32,7 +32,7 @@ def test_hot_kernel_compiled_without_reference_counting(module, name):
     fn = getattr(module, name)
     assert fn.targetoptions.get("_nrt") is False, (
         f"{module.__name__}.{name} is compiled with reference counting: decorate it with "
-        f"engine.jit.item_kernel (it must not allocate)")
+        f"engine.kernels.jit.item_kernel (it must not allocate)")
 
 
 def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():

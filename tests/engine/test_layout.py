@@ -47,7 +47,7 @@ def test_quats_z_to_equals_quat_from_two_vectors():
 
 
 def test_quat_mul_equals_the_kernel():
-    from engine.rotations import qmul
+    from engine.kernels.rotations import qmul
 
     rng = np.random.default_rng(3)
     a, b = rng.normal(size=(500, 4)), rng.normal(size=(500, 4))

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.stepper", "engine.build")
+HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.kernels.stepper", "engine.build")
 
 _CODE = """
 import json, sys
@@ -56,10 +56,10 @@ print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))
 
 def test_design_view_imports_no_kernels():
     # the studio draws a design with engine.layout and engine.meshes (numpy, trimesh): a
-    # kernel module imported on the way (say engine.rotations for a quaternion) would make
-    # the first design view wait for numba
+    # kernel module imported on the way (say engine.kernels.rotations for a quaternion) would
+    # make the first design view wait for numba
     scene = ROOT / "static_presets" / "gripper.json"
     p = subprocess.run([sys.executable, "-c", _DESIGN_CODE, str(scene), "numba",
-                        "engine.stepper", "engine.build", "engine.rotations"], cwd=ROOT,
-                       capture_output=True, text=True, check=True)
+                        "engine.kernels.stepper", "engine.build", "engine.kernels.rotations"],
+                       cwd=ROOT, capture_output=True, text=True, check=True)
     assert json.loads(p.stdout) == []

@@ -1,4 +1,4 @@
-"""Mesh-mesh body contact (engine/mesh_contact.py) against independent references: energy
+"""Mesh-mesh body contact (engine/kernels/mesh_contact.py) against independent references: energy
 and angular momentum conservation of an isolated pair, static equilibrium (the contact force
 equals the load; the depth follows from the documented vertex stiffness), and the impulse of
 a frictionless rigid-body impact (Newton's impact law with the impulse equations)."""
@@ -365,7 +365,7 @@ def test_bodies_built_inside_each_other_are_refused():
 def test_sampled_face_resting_on_a_face_is_stable_at_the_automatic_dt():
     """More points touching than the timestep assumes (``MESH_CONTACTS``): the automatic dt
     must still hold, and the face carries the weight (force balance, any stiffness)."""
-    from engine.mesh_contact import MESH_CONTACTS
+    from engine.kernels.mesh_contact import MESH_CONTACTS
     small, big = 0.05, 0.2
     z0 = big / 2 + small / 2
     block = _box("block", small, (0.01, 0.0, z0), contact_spacing=0.004)

@@ -1,4 +1,4 @@
-"""Relative orbital dynamics (Clohessy-Wiltshire, engine.orbit) against the closed-form
+"""Relative orbital dynamics (Clohessy-Wiltshire, engine.kernels.orbit) against the closed-form
 solution, the Jacobi integral, and the inertial (n = 0) engine it must leave untouched."""
 import math
 

@@ -121,7 +121,7 @@ def test_the_bound_is_above_the_highest_frequency_of_the_linearised_bristle():
     rotation rows' diagonal without the shear part ``12EI/L^3 * L^2/4`` (bound 13,209 against
     the true 14,815 rad/s), rotation left out of the bound (12,769), and a stiffness counted
     several times over (a needlessly small dt)."""
-    from engine.rotations import qexp, qmul
+    from engine.kernels.rotations import qexp, qmul
 
     scene = _rods(1, n_nodes=6, length=0.033)
     scene["materials"] = {"silicone": {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48,

@@ -312,9 +312,10 @@ def test_sphere_on_plate_rebounds_as_the_nonattractive_dashpot(tmp_path, restitu
     integrated by scipy. Independent of k_n: it checks the damping ratio formula and the
     effective mass. Catches a factor in zeta (e.g. ln e for ln e / pi), c = zeta sqrt(k m)
     (half), or the reduced mass of a free-fixed pair taken as m / 2."""
+    from engine.kernels.contact_law import restitution_damping_ratio
+
     measured = _bounce(tmp_path, restitution)
-    ref = analytic.nonattractive_dashpot_restitution(
-        engine.contact_law.restitution_damping_ratio(restitution))
+    ref = analytic.nonattractive_dashpot_restitution(restitution_damping_ratio(restitution))
     # 1 %: the step resolves the contact with omega dt = 0.005; the contact's start and end
     # fall between steps (measured: +0.11 % at e = 0.3 here, -0.5 % at twice the step);
     # a factor 2 in zeta or c
@@ -333,11 +334,11 @@ def test_sphere_on_plate_rebounds_with_the_scene_restitution(tmp_path, restituti
 
 @pytest.mark.parametrize("zeta", [0.05, 0.3, 0.7, 0.999, 1.0, 1.5, 4.0])
 def test_clipped_restitution_closed_form_matches_the_integrated_law(zeta):
-    """engine.contact_law.clipped_restitution (closed form, both damping regimes) against
-    scipy's integration of the same clipped law; 1e-9: the integrator's rtol 1e-12 over one
-    contact. Catches a wrong end-of-contact condition (x = 0 instead of k x + c v = 0 gives
+    """engine.kernels.contact_law.clipped_restitution (closed form, both damping regimes)
+    against scipy's integration of the same clipped law; 1e-9: the integrator's rtol 1e-12 over
+    one contact. Catches a wrong end-of-contact condition (x = 0 instead of k x + c v = 0 gives
     the classical, smaller e) or a wrong overdamped branch."""
-    from engine.contact_law import clipped_restitution
+    from engine.kernels.contact_law import clipped_restitution
 
     assert clipped_restitution(zeta) == pytest.approx(
         analytic.nonattractive_dashpot_restitution(zeta), rel=1e-9)

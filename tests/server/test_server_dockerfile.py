@@ -92,7 +92,8 @@ def test_install_and_warm_up_steps_in_a_fresh_venv(tmp_path):
 
     app = tmp_path / "app"
     copy_context(app)
-    assert not (app / "engine" / "__pycache__").exists() and not (app / ".git").exists()
+    assert not (app / "engine" / "kernels" / "__pycache__").exists()
+    assert not (app / ".git").exists()
     venv = tmp_path / "venv"
     # --system-site-packages: the dependencies are already here, nothing to download
     subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)],
@@ -119,7 +120,7 @@ def test_install_and_warm_up_steps_in_a_fresh_venv(tmp_path):
                              env=env, capture_output=True, text=True, check=True)
     assert re.fullmatch(r"brush-studio \d+\.\d+\.\d+\S*", version.stdout.strip())
     # the warm-up compiled and cached the kernels, and cleaned up after itself
-    cache = app / "engine" / "__pycache__"
+    cache = app / "engine" / "kernels" / "__pycache__"
     assert len(list(cache.glob("*.nbi"))) >= 5 and list(cache.glob("*.nbc"))
     assert (cache / "numba-source.sha256").is_file()
     assert not (app / "warmup").exists()

@@ -13,7 +13,7 @@ import contextlib, io, json, sys
 from studio.cli import main
 with contextlib.redirect_stdout(io.StringIO()):
     codes = [main(["--help"]), main(["study", "wedge", "--help"])]
-heavy = ("numba", "distributed", "dask", "trimesh", "scipy", "engine.stepper", "matplotlib")
+heavy = ("numba", "distributed", "dask", "trimesh", "scipy", "engine.kernels.stepper", "matplotlib")
 print(json.dumps([codes, sorted(m for m in heavy if m in sys.modules)]))
 """
 

@@ -161,10 +161,7 @@ CROSS_END = 0.25       # crossing contacts fade out over the last quarter of eac
 
 
 @njit(cache=True, parallel=True)
-def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
-                           seg_material, pa, pb, n_pairs, ft, friction,
-                           E, mu_table, kt_table, zeta_table,
-                           active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
+def bristle_bristle_narrow(nd, bn, pl, tb, friction, dt):
     """Contacts of the first ``n_pairs`` listed segment pairs, up to ``NSLOT`` per pair:
 
     * slots 0-3, node against segment: each node of one bristle against the other bristle's
@@ -179,6 +176,13 @@ def bristle_bristle_narrow(x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg
     Per slot: the force on the pair's first segment ``fc`` (the second gets ``-fc``), the
     contact point ``cp``, and the contact's parameters on both segments; tangential history
     per slot in ``ft``."""
+    x, v, w, rad, mass = nd.x, nd.v, nd.w, nd.rad, nd.mass
+    bond_prev, bond_next = nd.bond_prev, nd.bond_next
+    bi, bj, seg_has_next, seg_material = bn.i, bn.j, bn.has_next, bn.material
+    pa, pb, n_pairs, ft = pl.a, pl.b, pl.n[0], pl.ft
+    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    active, fc, cp, par_s, par_t = pl.active, pl.fc, pl.cp, pl.s, pl.t
+    energy, diss, overlap_ratio, xf = pl.energy, pl.diss, pl.ratio, pl.xf
     if n_pairs >= PARALLEL_MIN:
         for p in prange(n_pairs):
             _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
@@ -533,10 +537,13 @@ def add_segment_force(x, f, t, i0, i1, s, Fx, Fy, Fz, cx, cy, cz):
 
 
 @njit(cache=True)
-def scatter_bristle_bristle(x, f, t, bi, bj, pa, pb, n_pairs, active, fc, cp, par_s, par_t,
-                            energy, diss, overlap_ratio, xf, stats):
+def scatter_bristle_bristle(nd, bn, pl, stats):
     """Add the pair forces to the nodes (serial: race-free). ``stats`` gets
     [count, stored energy, dissipated energy, max overlap ratio, pair index of the max]."""
+    x, f, t, bi, bj = nd.x, nd.f, nd.t, bn.i, bn.j
+    pa, pb, n_pairs = pl.a, pl.b, pl.n[0]
+    active, fc, cp, par_s, par_t = pl.active, pl.fc, pl.cp, pl.s, pl.t
+    energy, diss, overlap_ratio, xf = pl.energy, pl.diss, pl.ratio, pl.xf
     count = 0
     e_sto = 0.0
     e_dis = 0.0

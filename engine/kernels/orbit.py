@@ -226,7 +226,7 @@ def orbit_energy_terms(n: float, gravity_gradient: bool, node_mass, node_x, moti
     frame the engine's kinetic energy 1/2 w.L plus this is 1/2 w_rel.I w_rel - 1/2
     Omega.I Omega plus a constant); the frame's centrifugal potential of a hinge body,
     -1/2 n^2 I_zz; with ``gravity_gradient`` the potential n^2/2 (tr I - 3 I_xx)."""
-    FREE, HINGE = 3, 2  # engine.bodies' motion codes (bodies imports this module)
+    FREE, HINGE = 3, 2  # engine.kernels.bodies' motion codes (bodies imports this module)
     n2 = n * n
     xs = np.asarray(node_x, float)
     e = -np.einsum("n,fn->f", np.asarray(node_mass, float),
@@ -254,7 +254,7 @@ def orbit_energy(system) -> float:
     n = float(system.mission.orbit[0])
     if n == 0.0:
         return 0.0
-    from .layout import quat_to_matrix
+    from ..layout import quat_to_matrix
     nd, bd = system.nodes, system.bodies
     free = nd.inv_mass > 0
     B = bd.pos.shape[0]

@@ -188,10 +188,7 @@ HIT_SIZE = 11  # a touching point: index, depth, normal (3), arms from both cent
 
 
 @njit(cache=True)
-def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, point_start,
-                       points, pair_kn, pair_len, verts, tris, tnormal, pnormal, grid_origin,
-                       grid_cell, grid_dims, grid_base, grid_start, grid_tris, mu_table,
-                       kt_table, zeta_table, ft, friction, scratch, bf, btq, stats, dt):
+def mesh_mesh_contacts(bd, tb, friction, stats, dt):
     """Point-in-body contacts of every body pair with ``pair_kn[a, b] > 0`` (set by
     ``build``: both closed meshes that collide, at least one moving). ``points`` holds each
     body's contact points (body frame), body k's from ``point_start[k]``; ``ft`` is the
@@ -202,6 +199,15 @@ def mesh_mesh_contacts(bpos, bq, bv, bw, bmass, motion, bound_r, body_material, 
     the explicit step overshoots once a face lands). Adds to ``stats`` (which the sphere
     contacts filled first): [count, stored energy, dissipated energy, max depth /
     pair_len]."""
+    bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
+    bound_r, body_material = bd.bound_r, bd.material
+    point_start, points = bd.point_start, bd.points
+    pair_kn, pair_len = bd.mesh_kn, bd.mesh_len
+    verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
+    grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
+    mu_table, kt_table, zeta_table = tb.mu, tb.kt, tb.zeta
+    ft, scratch, bf, btq = bd.ft_mesh, bd.scratch, bd.f, bd.tq
     nk = bpos.shape[0]
     for a in range(nk):
         for b in range(a + 1, nk):

@@ -31,13 +31,13 @@ from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_his
                        scatter_bristle_bristle, segment_bounds)
 from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot
-from .state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP, ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS,
-                    ACC_STEPS, ACC_TIME, ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED,
-                    FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
-                    FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, OK,
-                    OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY, SLOT_BONDS,
-                    SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS, SLOT_EXTERNAL,
-                    SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
+from ..state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP,
+                     ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS, ACC_STEPS, ACC_TIME,
+                     ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED, FAIL_NODE_SPEED,
+                     FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE, FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY,
+                     FAIL_OVERLAP_BODYBODY, OK, OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY,
+                     SLOT_BONDS, SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS,
+                     SLOT_EXTERNAL, SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
 
 
 @njit(cache=True)
@@ -390,10 +390,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         last = it == n_steps - 1
         want_energy = fl.track_energy and (last or fl.bond_damping)
         if fl.bonds:
-            bond_node_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb,
-                             bn.kt, bn.L0, bn.cn, bn.cs, bn.cb, bn.ct, nd.bond_prev, nd.bond_next,
-                             nd.f, nd.t, bn.energy, bn.diss, bn.bend, fl.bond_damping,
-                             want_energy, dt)
+            bond_node_forces(nd, bn, fl.bond_damping, want_energy, dt)
             if fl.track_energy and fl.bond_damping:
                 acc[ACC_DISSIPATED] += bn.diss.sum()
         else:
@@ -413,16 +410,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             c4 = _clock()
             stage_time[SLOT_EXTERNAL] += c4 - c3
         if fl.bristle_bristle:
-            n_pairs = pl.n[0]
-            bristle_bristle_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
-                                   nd.bond_next, bn.has_next,
-                                   bn.material, pl.a, pl.b, n_pairs, pl.ft,
-                                   fl.friction_bristle, tb.E, tb.mu, tb.kt, tb.zeta,
-                                   pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
-                                   pl.ratio, pl.xf, dt)
-            scatter_bristle_bristle(nd.x, nd.f, nd.t, bn.i, bn.j, pl.a, pl.b, n_pairs,
-                                    pl.active, pl.fc, pl.cp, pl.s, pl.t, pl.energy, pl.diss,
-                                    pl.ratio, pl.xf, stats)
+            bristle_bristle_narrow(nd, bn, pl, tb, fl.friction_bristle, dt)
+            scatter_bristle_bristle(nd, bn, pl, stats)
             acc[ACC_N_BB] = stats[0]
             acc[ACC_E_BB] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]
@@ -437,20 +426,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             c5 = _clock()
             stage_time[SLOT_BRISTLE_BRISTLE] += c5 - c4
         if fl.bristle_body:
-            n_cand = bl.n[0]
-            bristle_body_narrow(nd.x, nd.v, nd.w, nd.rad, nd.mass, bn.i, bn.j, nd.bond_prev,
-                                bn.has_next,
-                                bn.material, bl.s, bl.b, bl.deep, n_cand, bl.ft,
-                                fl.friction_body,
-                                bl.local, bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion,
-                                bd.sphere_r, bd.watertight, bd.material, bd.verts, bd.tris,
-                                bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
-                                bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
-                                tb.mu, tb.kt, tb.zeta, bl.active, bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio,
-                                bl.xf, dt)
-            scatter_bristle_body(nd.x, nd.f, nd.t, bn.i, bn.j, bl.s, bl.b, n_cand, bl.active,
-                                 bl.fc, bl.cp, bl.par, bl.energy, bl.diss, bl.ratio, bl.xf,
-                                 bd.pos, bd.f, bd.tq, stats)
+            bristle_body_narrow(nd, bn, bl, bd, tb, fl.friction_body, dt)
+            scatter_bristle_body(nd, bn, bl, bd, stats)
             acc[ACC_N_BODY] = stats[0]
             acc[ACC_E_BODY] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]
@@ -465,20 +442,9 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             c6 = _clock()
             stage_time[SLOT_BRISTLE_BODY] += c6 - c5
         if fl.body_body:
-            body_body_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.sphere_r,
-                               bd.watertight, bd.material, bd.collide, bd.verts, bd.tris,
-                               bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
-                               bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.E,
-                               tb.mu, tb.kt, tb.zeta, bd.ft_bb, fl.friction_body_body, bd.scratch, bd.f, bd.tq,
-                               stats, dt)
+            body_body_contacts(bd, tb, fl.friction_body_body, stats, dt)
             if fl.mesh_mesh:
-                mesh_mesh_contacts(bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion, bd.bound_r,
-                                   bd.material, bd.point_start, bd.points, bd.mesh_kn,
-                                   bd.mesh_len, bd.verts,
-                                   bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin, bd.grid_cell,
-                                   bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris, tb.mu,
-                                   tb.kt, tb.zeta, bd.ft_mesh, fl.friction_body_body, bd.scratch,
-                                   bd.f, bd.tq, stats, dt)
+                mesh_mesh_contacts(bd, tb, fl.friction_body_body, stats, dt)
             acc[ACC_N_BODYBODY] = stats[0]
             acc[ACC_E_BODYBODY] = stats[1]
             acc[ACC_DISSIPATED] += stats[2]

@@ -74,8 +74,7 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
 
 
 @njit(cache=True, parallel=True)
-def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
-                     bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
+def bond_node_forces(nd, bn, damped, want_energy, dt):
     """Set each node's force and torque to the sum of its (at most two) bonds' actions, in one
     pass over nodes, without per-bond arrays.
 
@@ -87,6 +86,11 @@ def bond_node_forces(x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct
     is the first force stage of a step: it overwrites ``f`` and ``t``. Energies (written
     when ``want_energy``) are written by the evaluation as a next bond only.
     """
+    x, v, q, w, f, t = nd.x, nd.v, nd.q, nd.w, nd.f, nd.t
+    bond_prev, bond_next = nd.bond_prev, nd.bond_next
+    bi, bj, kn, ks, kb, ksb, kt, L0 = bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0
+    cn, cs, cb, ct = bn.cn, bn.cs, bn.cb, bn.ct
+    benergy, bdiss, bbend = bn.energy, bn.diss, bn.bend
     n = f.shape[0]
     if n >= PARALLEL_MIN:
         nchunk = (n + NODE_CHUNK - 1) // NODE_CHUNK

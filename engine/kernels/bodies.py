@@ -159,7 +159,7 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
                      orbit_n=0.0):
     """Half a velocity kick of free and hinge bodies from the forces of the last evaluation.
     ``acc[0]`` accumulates the energy the hinge dissipation removes. ``orbit_n``: the mean
-    motion of the Hill frame the scene lives in (0 = inertial; see engine.orbit)."""
+    motion of the Hill frame the scene lives in (0 = inertial; see engine.kernels.orbit)."""
     h = 0.5 * dt
     for k in range(motion.shape[0]):
         m = motion[k]
@@ -208,7 +208,7 @@ def bodies_drift(dt, time_new, motion, pos, q, v, w, L, Ip, hinge_axis, hinge_po
     their profile at ``time_new``; a kinematic body whose profile ended and whose ``after``
     is free becomes a free body). With ``orbit_n`` != 0 a free body's centre follows the
     exact Clohessy-Wiltshire flow and its momentum and orientation turn with the Hill frame
-    (engine.orbit)."""
+    (engine.kernels.orbit)."""
     for k in range(motion.shape[0]):
         m = motion[k]
         if m == FREE:

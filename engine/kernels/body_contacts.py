@@ -265,12 +265,7 @@ BODY_CROSS_END = 0.25
 
 
 @njit(cache=True, parallel=True)
-def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
-                        seg_material, cs, cb, deep, n_cand, ft, friction, local,
-                        bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
-                        verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
-                        grid_start, grid_tris, E, mu_table, kt_table, zeta_table,
-                        active, fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
+def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     """Bristle-body contacts of the first ``n_cand`` candidates, up to ``BSLOT`` each:
     slot 0 the segment's start node (a sphere of the node's radius) against the body, slot 1
     the tip node of a bristle's last segment, slot 2 the segment between its nodes against an
@@ -278,6 +273,17 @@ def bristle_body_narrow(x, v, w, rad, mass, bi, bj, bond_prev, seg_has_next,
     segment's ends where the node contacts take over. A bristle lying along a face therefore
     touches it at every node (a line contact), and a wedge's edge across a bristle touches it
     between nodes. ``fc`` is the force on the segment (the body gets ``-fc`` at ``cp``)."""
+    x, v, w, rad, mass, bond_prev = nd.x, nd.v, nd.w, nd.rad, nd.mass, nd.bond_prev
+    bi, bj, seg_has_next, seg_material = bn.i, bn.j, bn.has_next, bn.material
+    cs, cb, deep, n_cand, ft, local = bl.s, bl.b, bl.deep, bl.n[0], bl.ft, bl.local
+    bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
+    sphere_r, watertight, body_material = bd.sphere_r, bd.watertight, bd.material
+    verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
+    grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
+    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    active, fc, cp, par_s = bl.active, bl.fc, bl.cp, bl.par
+    energy, diss, overlap_ratio, xf = bl.energy, bl.diss, bl.ratio, bl.xf
     if n_cand >= PARALLEL_MIN:
         for c in prange(n_cand):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
@@ -690,10 +696,14 @@ def _dsmooth01(u):
 
 
 @njit(cache=True)
-def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s, energy, diss,
-                         overlap_ratio, xf, bpos, bf, btq, stats):
+def scatter_bristle_body(nd, bn, bl, bd, stats):
     """Add candidate forces to nodes and bodies (serial). ``stats`` gets [count, stored,
     dissipated, max overlap ratio, candidate index of the max]."""
+    x, f, t, bi, bj = nd.x, nd.f, nd.t, bn.i, bn.j
+    cs, cb, n_cand = bl.s, bl.b, bl.n[0]
+    active, fc, cp, par_s = bl.active, bl.fc, bl.cp, bl.par
+    energy, diss, overlap_ratio, xf = bl.energy, bl.diss, bl.ratio, bl.xf
+    bpos, bf, btq = bd.pos, bd.f, bd.tq
     count = 0
     e_sto = 0.0
     e_dis = 0.0
@@ -734,13 +744,17 @@ def scatter_bristle_body(x, f, t, bi, bj, cs, cb, n_cand, active, fc, cp, par_s,
 
 
 @njit(cache=True)
-def body_body_contacts(bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material,
-                       collide, verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
-                       grid_base, grid_start, grid_tris, E, mu_table, kt_table, zeta_table, ft, friction,
-                       scratch, bf, btq, stats, dt):
+def body_body_contacts(bd, tb, friction, stats, dt):
     """Sphere-sphere and sphere-mesh contacts between bodies (mesh-mesh pairs are not
     computed). ``ft`` is (K, K, 3) history; ``scratch`` a (3,) array. ``stats`` gets
     [count, stored, dissipated, max overlap ratio]."""
+    bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
+    sphere_r, watertight, body_material = bd.sphere_r, bd.watertight, bd.material
+    collide, verts, tris, tnormal, pnormal = bd.collide, bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
+    grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
+    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    ft, scratch, bf, btq = bd.ft_bb, bd.scratch, bd.f, bd.tq
     nk = bpos.shape[0]
     count = 0
     e_sto = 0.0
