@@ -213,7 +213,7 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     # take it (bond damping 0.5 tried: -1.45 deg/s at 30 s). Soft, damped attitude loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12,
     # 1 / 20) were tried and failed (the wound brush collapsed or the target drifted back
     # up, seen): staying detumbled needs the chaser to let go at the threshold (a pose
-    # schedule, which engine/control.py does not have)
+    # schedule, which engine/kernels/control.py does not have)
     # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
     # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
     # each: their pushes' moments across the spin axis cancel (one brush off the axis

@@ -273,7 +273,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     segment's ends where the node contacts take over. A bristle lying along a face therefore
     touches it at every node (a line contact), and a wedge's edge across a bristle touches it
     between nodes. ``fc`` is the force on the segment (the body gets ``-fc`` at ``cp``)."""
-    x, v, w, rad, mass, bond_prev = nd.x, nd.v, nd.w, nd.rad, nd.mass, nd.bond_prev
+    x, v, w, rad, mass = nd.x, nd.v, nd.w, nd.rad, nd.mass
     bi, bj, seg_has_next, seg_material = bn.i, bn.j, bn.has_next, bn.material
     cs, cb, deep, n_cand, ft, local = bl.s, bl.b, bl.deep, bl.n[0], bl.ft, bl.local
     bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
