@@ -18,15 +18,15 @@ def _start(studio, page, previous=None) -> str:
     """Start a run (clicked again if the busy page lost the click); return its id once the
     status line names it. (Software WebGL on a loaded machine can hold the page's updates
     for seconds: the limit is generous, the check is that the new job is named.)"""
-    for attempt in range(2):
+    for attempt in range(3):
         t0 = time.monotonic()
         click(page, "Start run")
         try:
             job = studio.wait_state(lambda s: s["active_job"] not in (None, previous),
-                                    timeout=10, what="a started job")["active_job"]
+                                    timeout=20, what="a started job")["active_job"]
             break
         except AssertionError:
-            if attempt == 1:
+            if attempt == 2:
                 raise
     t1 = time.monotonic()
     while not any(f"{w} {job}" in _text(page) for w in ("Queued job", "Job")):
