@@ -10,7 +10,7 @@ Start queues the design as a job in the shared background worker pool
 (``studio.jobs.JobManager``: the worker process runs the engine and writes HDF5; this process
 only reads result files with ``engine.open_result``), the latest frames of a running job
 stream into the view, and a finished run can be scrubbed, played and plotted. Runs and
-studies are shared: every tab lists every job. The Studies tab (``studio.ui_studies``)
+studies are shared: every tab lists every job. The Studies tab (``studio.panels.studies_tab``)
 starts a study as a job of the same pool. Beside viser, the same JobManager is served as the
 HTTP API (``studio.server``) on ``--api-port`` (default port + 1), plus the studio routes:
 

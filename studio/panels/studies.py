@@ -1,4 +1,4 @@
-"""The Studies panel: the Studies tab (forms, plots, tables: :mod:`studio.ui_studies`) on
+"""The Studies panel: the Studies tab (forms, plots, tables: :mod:`studio.panels.studies_tab`) on
 the shared job pool. A mixin of :class:`studio.app.Studio`."""
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ class StudiesPanel:
     def _build_studies_gui(self, gui) -> None:
         self.studies = None
         if self.jobs is not None:
-            from ..ui_studies import StudiesTab
+            from .studies_tab import StudiesTab
 
             self.studies = StudiesTab(gui, self.tab_studies, self.jobs, preset_names(),
                                       _md_escape, current_design=self.study_design)

@@ -263,12 +263,19 @@ def _connect(scheduler: Optional[str], n_workers: Optional[int]):
     n = n_workers or default_workers()
     env = {"NUMBA_NUM_THREADS": "1", "BRUSH_STUDIO_NUMBA_THREADS": "1",
            "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           host="127.0.0.1", dashboard_address=None,
-                           silence_logs=logging.ERROR, env=env,
-                           worker_dashboard_address=None,
-                           # no dashboard; its bare HTTP server on any free port, not 8787
-                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               host="127.0.0.1", dashboard_address=None,
+                               silence_logs=logging.ERROR, env=env,
+                               worker_dashboard_address=None,
+                               # no dashboard; its bare HTTP server on any free port, not 8787
+                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+    except RuntimeError as exc:
+        raise RuntimeError(
+            f"Dask could not start its {n} local worker processes ({exc}). They are "
+            f"spawned: each imports the calling script again, so a script that runs a study "
+            f"must do it under `if __name__ == \"__main__\":` (examples/03_study_on_dask.py); "
+            f"or pass workers=1 to run in this process.") from exc
     return Client(cluster), cluster
 
 

@@ -69,3 +69,30 @@ def test_run_ids_are_checked(tmp_path, tiny_scene):
     with pytest.raises(ValueError, match="unique"):
         run_many([RunSpec("a", tiny_scene()), RunSpec("a", tiny_scene())], tmp_path,
                  progress=False)
+
+
+def test_a_script_without_a_main_guard_is_told_why_dask_cannot_start(tmp_path):
+    """Dask spawns its local workers, and each imports the calling script again: a script that
+    runs a study at import time makes them fail to start. The error must say so (Dask's own
+    is "Nanny failed to start."): catches the hint being lost or the guard advice being wrong."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = tmp_path / "no_guard.py"
+    script.write_text(
+        "import json\n"
+        "from studio.presets import preset_path\n"
+        "from studio.studies.runner import RunSpec, run_many\n"
+        "scene = json.loads(preset_path('rod_weight_static').read_text())\n"
+        "scene['brushes'][0]['n_nodes'] = 3\n"
+        "scene['run']['duration'] = 0.01\n"
+        "run_many([RunSpec(run_id=f'r{i}', scene=scene, params={}) for i in range(2)],\n"
+        f"         {str(tmp_path / 'out')!r}, n_workers=2, progress=False)\n")
+    env = dict(os.environ, PYTHONPATH=str(root))
+    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0
+    assert 'if __name__ == "__main__":' in proc.stderr, proc.stderr[-2000:]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from studio.jobs import StudyOptionError, study_argv
-from studio.ui_studies import (FORMS, FormError, convergence_figure, convergence_markdown,
+from studio.panels.studies_tab import (FORMS, FormError, convergence_figure, convergence_markdown,
                                form_options, png_array)
 
 

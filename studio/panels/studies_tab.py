@@ -20,9 +20,9 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .panels.common import (NO_JOBS, PLOT_ASPECT, _fmt_s, _one_line, follow_job, job_of,
+from .common import (NO_JOBS, PLOT_ASPECT, _fmt_s, _one_line, follow_job, job_of,
                             set_job_choices)
-from .study_charts import study_charts, study_eta
+from ..study_charts import study_charts, study_eta
 
 #: study -> its form fields: (option name, kind, default, label). kind: preset | number |
 #: int | text | bool. The defaults are small enough to finish in seconds to a minute.
@@ -265,7 +265,7 @@ class StudiesTab:
 
     def start(self) -> Optional[str]:
         """Submit the form's study; returns the job id (None if refused)."""
-        from .jobs import StudyOptionError
+        from ..jobs import StudyOptionError
 
         study = self.dd_study.value
         try:
@@ -354,7 +354,7 @@ class StudiesTab:
         self.md_table.visible = False
         if info.study == "convergence" and "convergence.json" in files:
             try:
-                from .studies.convergence import load_convergence
+                from ..studies.convergence import load_convergence
 
                 table = load_convergence(folder)
                 self.md_table.content = convergence_markdown(table)
