@@ -22,7 +22,7 @@ CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
                         ("angular_impulse_total", ()), ("position_error", (3,)),
                         ("attitude_error", (3,)))
 #: added for a controller with a release rule (``release_below``): 1 once released, and the
-#: time of the releasing sample (NaN before)
+#: time of the releasing sample (-1 before)
 RELEASE_CHANNELS = (("released", ()), ("release_time", ()))
 
 

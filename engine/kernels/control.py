@@ -54,7 +54,7 @@ S_ERR_POS = 27     # 3: position error at the last sample, world axes (m)
 S_ERR_ATT = 30     # 3: attitude error (rotation vector) at the last sample, world axes (rad)
 S_SAMPLES = 33
 S_RELEASED = 34    # 0 holding, 1 released (latched)
-S_RELEASE_TIME = 35  # time of the sample that released (s); NaN until then (engine.build)
+S_RELEASE_TIME = 35  # time of the sample that released (s); -1 until then (engine.build)
 S_SIZE = 36
 
 
