@@ -66,6 +66,9 @@ def build_mission(scene: Scene, orbit_n: float, body_names: list[str],
         cp[i, C.P_DB_ATT] = c.attitude_deadband
         cp[i, C.P_TARGET:C.P_TARGET + 3] = c.position
         cp[i, C.P_QTARGET:C.P_QTARGET + 4] = c.orientation
+        cp[i, C.P_RELEASE_BELOW] = c.release_below if c.release_below is not None else 0.0
+        cp[i, C.P_RELEASE_OFFSET:C.P_RELEASE_OFFSET + 3] = c.release_offset
+        cs[i, C.S_RELEASE_TIME] = -1.0   # not released (finite: results stay finite)
         # q_body = q_pose q_p (principal -> shape): the mesh axes are q_body q_p^-1
         cp[i, C.P_QBM:C.P_QBM + 4] = quat_conj(np.asarray(shape_to_body[ci[i, 0]], float))
     ext = np.zeros((len(scene.bodies), 6))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .build import System
-from .observables import (CONTROLLER_CHANNELS, bending_moments, controller_record, energies,
-                          root_reactions)
+from .observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, bending_moments,
+                          controller_record, energies, root_reactions)
 from .recorder import state_channels, state_frame
 from .state import ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY
 
@@ -50,6 +50,9 @@ def run_channels(system: System) -> tuple[dict, dict]:
     for c in sc.controllers:  # always recorded: a controller's record is small
         for key, shape in CONTROLLER_CHANNELS:
             ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
+        if c.release_below is not None:  # only then: results without it stay as they were
+            for key, shape in RELEASE_CHANNELS:
+                ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
     if "bending" in want and system.bonds.i.shape[0]:
         ch["bonds/bending_moment"] = ((system.bonds.i.shape[0],), "f4")
         static.setdefault("bonds/nodes", np.stack([system.bonds.i, system.bonds.j], axis=1))

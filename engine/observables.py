@@ -21,10 +21,14 @@ CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
                         ("impulse", (3,)), ("angular_impulse", (3,)), ("delta_v", ()),
                         ("angular_impulse_total", ()), ("position_error", (3,)),
                         ("attitude_error", (3,)))
+#: added for a controller with a release rule (``release_below``): 1 once released, and the
+#: time of the releasing sample (-1 before)
+RELEASE_CHANNELS = (("released", ()), ("release_time", ()))
 
 
 def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
-    """Controller c's current record (see CONTROLLER_CHANNELS)."""
+    """Controller c's current record (CONTROLLER_CHANNELS, and RELEASE_CHANNELS for a
+    controller with ``release_below``)."""
     from .kernels import control as C
     cs = system.mission.ctl_state[c]
     slots = {"commanded_force": C.S_CMD_F, "applied_force": C.S_APP_F,
@@ -34,6 +38,9 @@ def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
     out = {k: cs[i:i + 3].copy() for k, i in slots.items()}
     out["delta_v"] = np.float64(cs[C.S_DELTA_V])
     out["angular_impulse_total"] = np.float64(cs[C.S_ANG_IMPULSE_ABS])
+    if system.scene.controllers[c].release_below is not None:
+        out["released"] = np.float64(cs[C.S_RELEASED])
+        out["release_time"] = np.float64(cs[C.S_RELEASE_TIME])
     return out
 
 

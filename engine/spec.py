@@ -215,7 +215,11 @@ class PoseController(_Model):
     (world axes) and the velocity error is taken relative to that body's centre; the
     attitude target ``orientation`` is the body's mesh axes in the world frame. Inside the
     deadband (|position error| <= ``position_deadband``, |attitude error| <=
-    ``attitude_deadband``) that loop commands nothing."""
+    ``attitude_deadband``) that loop commands nothing. Release: with ``release_below``
+    (rad/s) and a ``reference``, at the first sample where the reference body's angular
+    speed is below ``release_below`` the controller latches "released" and aims from then on
+    at ``position`` + ``release_offset`` (m, world axes): the chaser backs off so its brush
+    lets go of a target it has detumbled. None (default) never releases."""
 
     name: str = "controller"
     body: str
@@ -231,6 +235,10 @@ class PoseController(_Model):
         None, description="N m per body axis; None = unlimited")
     position_deadband: NonNegativeFloat = Field(0.0, description="m")
     attitude_deadband: NonNegativeFloat = Field(0.0, description="rad")
+    release_below: Optional[PositiveFloat] = Field(
+        None, description="rad/s: release once the reference's |omega| is below; None = never")
+    release_offset: Vector3 = Field((0.0, 0.0, 0.0),
+                                    description="m, world axes: added to position once released")
 
     @field_validator("orientation")
     @classmethod
@@ -332,6 +340,10 @@ class Scene(_Model):
                 problems.append((f"controllers.{i}.reference", c.reference,
                                  f"must be null or one of the other bodies "
                                  f"{[b for b in bnames if b != c.body]}"))
+            if c.release_below is not None and c.reference is None:
+                problems.append((f"controllers.{i}.release_below", c.release_below,
+                                 "needs a reference body (the spin it watches): set "
+                                 "reference, or release_below to null"))
         for i, body in enumerate(self.bodies):
             if (any(body.external_force) or any(body.external_torque)) \
                     and body.motion.type != "free":

@@ -42,6 +42,10 @@ RESTITUTION = 0.5
 # 8.1e-6 s (upper stage) and 5.3e-6 s (box satellite): the aluminium-aluminium contact
 # stiffness against the target's rotational inertia (measured: docs/mission.md)
 HULL_CONTACT = False
+# Letting go (issue 15 item 1): the controller's release rule backs the chaser off by RETREAT
+# along the approach axis once the target is slow; 0.1 m is three times the held
+# interference, so the undeformed tips end 70 mm clear of the surface
+RETREAT = 0.1                 # m
 
 
 def _chaser_gains():
@@ -180,7 +184,17 @@ def upper_stage(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axis_
         f"along the orbit normal z, spinning at {omega0 / DEG:g} deg/s about it (all "
         f"assumptions); the brush rubs its side, the chaser radially above it (+x), the "
         f"brush's 17-bristle rows along the stage's axis (scene rows 5, columns 17). ")
-    return _scene("detumble_upper_stage", what, target, [brush], (1.0, 0.0, 0.0), radius, {},
+    # Release at 0.85 deg/s (measured, docs/mission.md): while the chaser backs off, the wound
+    # bristles still turn the target on; that unloading took 0.84 deg/s more off the spin
+    # (released at 0.5 deg/s it ended at -0.34 deg/s; at 1.0 deg/s, +0.16; at 0.85, -0.04)
+    release = 0.85 * DEG
+    what += (f"Release: once the target's |omega| is below {release / DEG:g} deg/s the "
+             f"controller backs the chaser off {RETREAT * 1e3:g} mm along +x (release_below, "
+             f"release_offset): the bristles unwinding as they let go take about 0.84 deg/s "
+             f"more off the spin, so the stage is left nearly still instead of being spun "
+             f"back. ")
+    return _scene("detumble_upper_stage", what, target, [brush], (1.0, 0.0, 0.0), radius,
+                  {"release_below": release, "release_offset": [RETREAT, 0.0, 0.0]},
                   silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)
 
 

@@ -5,7 +5,10 @@ Each controller samples its body's state when the step loop's time reaches its n
 time (every ``sample_interval``), computes a PID command on the position and attitude
 errors, expresses it in the body's mesh axes, clips each axis to the saturation, and holds
 that body-axis force and torque until the next sample (zero-order hold; the thrusters turn
-with the body in between). Every step it adds the held force and torque to the body and
+with the body in between). Release rule (``release_below``): at the first sample where the
+reference body's angular speed |omega| is below the threshold, the controller latches
+"released" and from that sample on aims at the target position plus ``release_offset``
+(world axes): the chaser backs off and its brush lets go of the target. Every step it adds the held force and torque to the body and
 accumulates the impulse, the Delta-v (integral of |F| / m) and the angular impulse.
 
 Arrays (built by ``engine.build``): ``ci`` (C, 2) int64: controlled body, reference body or
@@ -31,7 +34,9 @@ P_DB_ATT = 14
 P_TARGET = 15                        # 3: position, or offset from the reference's centre
 P_QTARGET = 18                       # 4: target orientation of the mesh axes
 P_QBM = 22                           # 4: principal frame -> mesh axes (q_mesh = q_body q_bm)
-P_SIZE = 26
+P_RELEASE_BELOW = 26                 # rad/s: release once |omega_reference| < this; 0 = never
+P_RELEASE_OFFSET = 27                # 3: added to the target position once released (m)
+P_SIZE = 30
 
 # state slots
 S_NEXT = 0
@@ -48,7 +53,9 @@ S_ANG_IMPULSE_ABS = 26  # integral of |torque| (N m s)
 S_ERR_POS = 27     # 3: position error at the last sample, world axes (m)
 S_ERR_ATT = 30     # 3: attitude error (rotation vector) at the last sample, world axes (rad)
 S_SAMPLES = 33
-S_SIZE = 34
+S_RELEASED = 34    # 0 holding, 1 released (latched)
+S_RELEASE_TIME = 35  # time of the sample that released (s); -1 until then (engine.build)
+S_SIZE = 36
 
 
 @njit(cache=True, inline="always")
@@ -61,14 +68,27 @@ def _clip(x, limit):
 
 
 @njit(cache=True)
-def _sample(c, ci, cp, cs, pos, q, v, w, mass):
+def _sample(c, ci, cp, cs, pos, q, v, w, mass, time):
     k = ci[c, 0]
     r = ci[c, 1]
     h = cp[c, P_INTERVAL]
+    # ---- release rule: latch once the reference's spin is below the threshold
+    if cs[c, S_RELEASED] == 0.0 and cp[c, P_RELEASE_BELOW] > 0.0 and r >= 0:
+        spin = math.sqrt(w[r, 0] * w[r, 0] + w[r, 1] * w[r, 1] + w[r, 2] * w[r, 2])
+        if spin < cp[c, P_RELEASE_BELOW]:
+            cs[c, S_RELEASED] = 1.0
+            cs[c, S_RELEASE_TIME] = time
     # ---- position loop (world axes)
-    ex = cp[c, P_TARGET] - pos[k, 0]
-    ey = cp[c, P_TARGET + 1] - pos[k, 1]
-    ez = cp[c, P_TARGET + 2] - pos[k, 2]
+    tx0 = cp[c, P_TARGET]
+    ty0 = cp[c, P_TARGET + 1]
+    tz0 = cp[c, P_TARGET + 2]
+    if cs[c, S_RELEASED] != 0.0:
+        tx0 += cp[c, P_RELEASE_OFFSET]
+        ty0 += cp[c, P_RELEASE_OFFSET + 1]
+        tz0 += cp[c, P_RELEASE_OFFSET + 2]
+    ex = tx0 - pos[k, 0]
+    ey = ty0 - pos[k, 1]
+    ez = tz0 - pos[k, 2]
     dvx = -v[k, 0]
     dvy = -v[k, 1]
     dvz = -v[k, 2]
@@ -142,7 +162,7 @@ def apply_controllers(ci, cp, cs, pos, q, v, w, mass, f, tq, time, dt):
     work = 0.0
     for c in range(ci.shape[0]):
         if time >= cs[c, S_NEXT] - 1e-9 * dt:
-            _sample(c, ci, cp, cs, pos, q, v, w, mass)
+            _sample(c, ci, cp, cs, pos, q, v, w, mass, time)
             while cs[c, S_NEXT] <= time + 1e-9 * dt:
                 cs[c, S_NEXT] += cp[c, P_INTERVAL]
         k = ci[c, 0]

@@ -125,3 +125,91 @@ def test_deadband_commands_nothing_inside_it():
         sys = engine.build(sc)
         engine.run(sys)
         assert (abs(sys.bodies.pos[0, 0]) > 1e-4) == moves
+
+
+# ----------------------------------------------------------------- release rule (issue 15)
+W0, ALPHA, THRESHOLD = 0.5, 0.1, 0.377   # rad/s, rad/s^2, rad/s: |omega| < 0.377 from 1.23 s
+
+
+def _release_scene(release, *, duration=20.0):
+    # the target spins at W0 about its principal z axis and a constant torque I*ALPHA brakes
+    # it: omega_z(t) = W0 - ALPHA t (exact: torque along a principal axis), below THRESHOLD
+    # from t_c = 1.23 s, through zero at 5 s, and back above THRESHOLD (negative) from 8.77 s.
+    # The chaser is held 2 m along x from the target's centre (where it starts, so it holds
+    # still until the release), the two boxes 1 m apart: no contact.
+    box = {"shape": {"type": "box", "size": [1.0, 1.0, 1.0]}, "material": "al",
+           "motion": {"type": "free"},
+           "mass_properties": {"mass": MASS, "inertia": [[0.4, 0, 0], [0, 0.4, 0],
+                                                         [0, 0, 0.4]]}}
+    ctl = {"name": "hold", "body": "chaser", "reference": "target",
+           "position": [2.0, 0.0, 0.0], "sample_interval": 0.1,
+           "position_gains": {"proportional": 2.0, "derivative": 4.0}}
+    ctl.update(release)
+    return engine.parse_scene({
+        "materials": {"al": AL},
+        "bodies": [dict(box, name="target", angular_velocity=[0.0, 0.0, W0],
+                        external_torque=[0.0, 0.0, -0.4 * ALPHA]),
+                   dict(box, name="chaser", pose={"position": [2.0, 0.0, 0.0]})],
+        "controllers": [ctl],
+        "run": {"duration": duration, "dt": 0.01, "record_interval": 0.1}})
+
+
+def test_release_switches_at_the_first_sample_below_the_threshold_and_stays():
+    # Samples fall every 0.1 s; |omega| crosses 0.377 rad/s at 1.23 s, so the sample at
+    # 1.2 s sees 0.380 and the one at 1.3 s sees 0.370: release at 1.3 s exactly (the margin,
+    # 0.003 rad/s, is 3 steps of spin change, so step-timing detail cannot move it). Catches:
+    # a release at the first sample whatever the spin (inverted test), one sample late or
+    # early, the offset applied before the release, and a release that unlatches when the
+    # spin grows back above the threshold at 8.77 s (the chaser would return to x = 2 m).
+    sc = _release_scene({"release_below": THRESHOLD, "release_offset": [1.0, 0.0, 0.5]})
+    sys = engine.build(sc)
+    res = engine.run(sys)
+    with res.open() as r:
+        t = r.time
+        released = r.series("controllers/hold/released")
+        release_time = r.series("controllers/hold/release_time")
+        chaser = r.series("bodies/chaser/position")
+    assert release_time[-1] == pytest.approx(1.3, abs=1e-9)
+    assert np.all(released[t < 1.3 - 1e-6] == 0.0) and np.all(release_time[t < 1.29] == -1.0)
+    assert np.all(released[t > 1.3 + 1e-6] == 1.0)
+    # before the release the chaser holds at its start, no command (zero error)
+    assert np.all(np.abs(chaser[t < 1.29] - [2.0, 0.0, 0.0]) < 1e-12)
+    # the spin came back above the threshold long before the end: still released, and the
+    # chaser settled at the retreat point. PD with kd = 2 sqrt(kp m): time constant 1 s,
+    # 18.7 s later the transient is ~1e-6 of the 1.1 m step; 1e-4 m covers it
+    assert abs(sys.bodies.w[0, 2]) > THRESHOLD
+    assert np.allclose(sys.bodies.pos[1] - sys.bodies.pos[0], [3.0, 0.0, 0.5], atol=1e-4)
+
+
+def test_release_needs_a_reference():
+    # the rule watches the reference's spin: without one it would never fire, silently
+    with pytest.raises(engine.SceneError, match="release_below"):
+        engine.parse_scene({
+            "materials": {"al": AL},
+            "bodies": [{"name": "chaser", "material": "al",
+                        "shape": {"type": "box", "size": [1.0, 0.8, 0.6]},
+                        "mass_properties": {"mass": MASS, "inertia": [[0.3, 0, 0],
+                                                                      [0, 0.5, 0],
+                                                                      [0, 0, 0.4]]},
+                        "motion": {"type": "free"}}],
+            "controllers": [{"name": "hold", "body": "chaser", "release_below": 0.1}],
+            "run": {"duration": 1.0, "dt": 0.01, "record_interval": 0.5}})
+
+
+def test_without_release_below_nothing_changes():
+    # A threshold the target never reaches (1e-9 rad/s) exercises the new branch without
+    # firing: every recorded channel must be bit-identical to the scene without the field,
+    # which has no release channels at all (result files as before issue 15). Catches a
+    # release offset added unconditionally, a reordered sum in the target, or a release
+    # that fires on a zero threshold.
+    runs = []
+    for release in ({}, {"release_below": 1e-9, "release_offset": [5.0, 0.0, 0.0]}):
+        sys = engine.build(_release_scene(release, duration=3.0))
+        res = engine.run(sys)
+        with res.open() as r:
+            runs.append({k: r.series(k) for k in r.channels()})
+    plain, never = runs
+    assert "controllers/hold/released" not in plain
+    assert np.all(never["controllers/hold/released"] == 0.0)
+    for key, val in plain.items():
+        assert np.array_equal(val, never[key]), key
