@@ -218,16 +218,15 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
     lever = 0.25                                # each brush's centre from the spin axis
     tip_sd = 1e-3                               # m: scatter of the tips (assumed)
     n_nodes, duration, stop_fraction = 5, 30.0, 0.05
-    # It does not detumble (issue 15 item 1, docs/mission.md): the brushes' tips stick to
-    # the slow face (friction limit tan 30 deg x 4.3 N x 0.25 m = 0.62 N m, never reached:
-    # at most 0.42 N m while winding), so against the rigidly held chaser they are a
-    # torsional spring (1.5 N m/rad loading, 47 s period with izz) that stores the spin
+    # Held on, it does not detumble (issue 15 item 1, docs/mission.md): the brushes' tips
+    # stick to the slow face (friction limit tan 30 deg x 4.3 N x 0.25 m = 0.62 N m, never
+    # reached: at most 0.42 N m while winding), so against the rigidly held chaser they are
+    # a torsional spring (1.5 N m/rad loading, 47 s period with izz) that stores the spin
     # (0.20 J of bond energy at omega_z = 0, 21.8 s) and gives it back (-1.38 deg/s at 30 s);
     # the bristles' bond dampers (c/k ~ 2.5e-4 s: loss factor ~3e-5 at that period) cannot
-    # take it (bond damping 0.5 tried: -1.45 deg/s at 30 s). Soft, damped attitude loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12,
-    # 1 / 20) were tried and failed (the wound brush collapsed or the target drifted back
-    # up, seen): staying detumbled needs the chaser to let go at the threshold (a pose
-    # schedule, which engine/kernels/control.py does not have)
+    # take it (bond damping 0.5 tried: -1.45 deg/s at 30 s), nor could soft, damped attitude
+    # loops for the chaser (kp 0 / kd 10 and 15, 0.5 / 12, 1 / 20: the wound brush collapsed
+    # or the target drifted back up). So the chaser lets go (release_below, below).
     # chaser above the +z face on the spin axis (through the centre of mass), two brushes on
     # its -z face at x = -+lever, bristles along -z (turned 180 deg about x), 9 rows of 5
     # each: their pushes' moments across the spin axis cancel (one brush off the axis
@@ -258,7 +257,8 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"bus of {bus_mass:g} kg (uniform) with one {panel[1]:g} x {panel[0]:g} m panel of "
         f"{panel_mass:g} kg ({panel[2] * 1e3:g} mm thick) out along +y from the bus's +y "
         f"face; {mass:g} kg, centre of mass {com_y * 1e3:.1f} mm from the bus centre toward "
-        f"the panel (placed at the origin), principal inertia {ixx:.1f}, {iyy:.1f}, {izz:.1f} kg m^2 (x, y, z; "
+        f"the panel (placed at the origin), principal inertia {ixx:.1f}, {iyy:.1f}, "
+        f"{izz:.1f} kg m^2 (x, y, z; "
         f"z, the orbit normal, is the major axis, so the spin is stable). The contact shape "
         f"is the bus alone: the panel's mass and inertia are in, its geometry is not (the "
         f"brush works on the bus's +z face and never reaches the panel; an assumption of "
@@ -269,17 +269,24 @@ def box_satellite(silicone: dict, phi_sil_sil: float, seed_brush: dict, quat_axi
         f"the target), tips scattered by {tip_sd * 1e3:g} mm (standard deviation in the "
         f"base plane, seeds 1 and 2: assumed manufacturing scatter; perfectly straight "
         f"bristles pressed end-on stay stiff columns), rub the face like a disc brake. "
-        f"Known result (docs/mission.md): the brushes take the spin about z through zero "
+        f"Measured (docs/mission.md): held on, the brushes take the spin about z through zero "
         f"(21.8 s) and then spin the target back (-1.38 deg/s at 30 s): their tips stick "
         f"to the slow face "
         f"(the friction limit, tan 30 deg x the 4.3 N push x 0.25 m = 0.62 N m, exceeds "
         f"the 0.42 N m they reach), so they store the spin as a torsional spring (about "
-        f"1.5 N m/rad with the target's {izz:.1f} kg m^2) and give it back; a chaser that "
-        f"lets go once the target is slow is not modelled (the controller holds a fixed "
-        f"pose). ")
+        f"1.5 N m/rad with the target's {izz:.1f} kg m^2) and give it back. ")
+    # Release at 0.4 deg/s (measured, docs/mission.md: released at 0.2/0.3/0.4/0.45 deg/s the
+    # target kept 0.236/0.156/0.125/0.144 deg/s at 30 s; held on, it is spun back to 1.38)
+    release = 0.4 * DEG
+    what += (f"Release: once the target's |omega| is below {release / DEG:g} deg/s the "
+             f"controller backs the chaser off {RETREAT * 1e3:g} mm along +z (release_below, "
+             f"release_offset), so the wound brushes let go instead of spinning the target "
+             f"back; what stays is the rocking about x and y that the two brushes build up "
+             f"(about 0.12 deg/s), above the study's 5 % threshold. ")
     # the chaser's centre: above the target's centre of mass (the body origin) on +z
     return _scene("detumble_box_satellite", what, target, brushes, (0.0, 0.0, 1.0), bus / 2,
-                  {}, silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)
+                  {"release_below": release, "release_offset": [0.0, 0.0, RETREAT]},
+                  silicone, phi_sil_sil, n_nodes, duration, stop_fraction, omega0)
 
 
 def all_detumble(silicone, phi_sil_sil, seed_brush, quat_axis_angle) -> list[dict]:
