@@ -101,19 +101,6 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
     return n
 
 
-@njit(cache=True)
-def carry_body_history(old_s, old_b, old_ft, n_old, new_s, new_b, new_ft, n_new, nk):
-    i = 0
-    for c in range(n_new):
-        key = new_s[c] * nk + new_b[c]
-        while i < n_old and old_s[i] * nk + old_b[i] < key:
-            i += 1
-        found = i < n_old and old_s[i] * nk + old_b[i] == key
-        for m in range(BSLOT):
-            for a in range(3):
-                new_ft[c * BSLOT + m, a] = old_ft[i * BSLOT + m, a] if found else 0.0
-
-
 @item_kernel
 def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_cell,
                      grid_dims, grid_base, grid_start, grid_tris):

@@ -141,17 +141,20 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
 
 
 @njit(cache=True)
-def carry_history(old_a, old_b, old_ft, n_old, new_a, new_b, new_ft, n_new, ns):
-    """Copy the tangential history of pairs present in both sorted lists (merge join)."""
+def carry_history(old_a, old_b, old_ft, n_old, new_a, new_b, new_ft, n_new, ns, nslot):
+    """Copy the tangential history (``nslot`` rows per entry) of the entries present in both
+    lists, sorted by the key ``a * ns + b`` (merge join); a new entry starts at zero. For the
+    segment pairs (``nslot`` = NSLOT, ``ns`` segments) and the segment-body candidates
+    (BSLOT, ``ns`` bodies)."""
     i = 0
     for k in range(n_new):
         key = new_a[k] * ns + new_b[k]
         while i < n_old and old_a[i] * ns + old_b[i] < key:
             i += 1
         found = i < n_old and old_a[i] * ns + old_b[i] == key
-        for m in range(NSLOT):
+        for m in range(nslot):
             for c in range(3):
-                new_ft[k * NSLOT + m, c] = old_ft[i * NSLOT + m, c] if found else 0.0
+                new_ft[k * nslot + m, c] = old_ft[i * nslot + m, c] if found else 0.0
 
 
 NSLOT = 5  # contacts a segment pair can hold: 4 node-segment + 1 crossing

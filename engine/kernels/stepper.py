@@ -23,7 +23,7 @@ from numba import njit, objmode, prange
 from .bodies import KINEMATIC, bodies_drift, bodies_half_kick
 from .control import apply_controllers, apply_external
 from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
-                            carry_body_history, scatter_bristle_body)
+                            scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_node_forces
 from .mesh_contact import mesh_mesh_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
@@ -279,15 +279,15 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
     if fl.bristle_bristle:
         if fl.friction_bristle:
             carry_history(pl.a, pl.b, pl.ft, pl.n[0], pl.a2, pl.b2, pl.ft2, n_new,
-                          bn.i.shape[0])
+                          bn.i.shape[0], NSLOT)
             pl.ft[:n_new * NSLOT] = pl.ft2[:n_new * NSLOT]
         pl.a[:n_new] = pl.a2[:n_new]
         pl.b[:n_new] = pl.b2[:n_new]
         pl.n[0] = n_new
     if fl.bristle_body:
         if fl.friction_body:
-            carry_body_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
-                               bd.pos.shape[0])
+            carry_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
+                          bd.pos.shape[0], BSLOT)
             bl.ft[:m_new * BSLOT] = bl.ft2[:m_new * BSLOT]
         bl.s[:m_new] = bl.s2[:m_new]
         bl.b[:m_new] = bl.b2[:m_new]

@@ -41,7 +41,7 @@ def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():
     allowed_with_nrt = {
         contacts: {"segment_bounds", "build_pair_list", "carry_history",
                    "bristle_bristle_narrow", "scatter_bristle_bristle"},
-        body_contacts: {"build_body_candidates", "carry_body_history", "bristle_body_narrow",
+        body_contacts: {"build_body_candidates", "bristle_body_narrow",
                         "scatter_bristle_body", "body_body_contacts"},
         # once per step (allocates each pair's hit buffers), and the build-time check
         mesh_contact: {"mesh_mesh_contacts", "_deepest_points"},
