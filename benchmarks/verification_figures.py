@@ -83,7 +83,9 @@ def main() -> None:
              bodies.test_cube_spinning_between_two_free_brushes_conserves_angular_momentum,
              lambda: bodies.test_bristle_on_incline_sticks_or_slides(20.0, False),
              lambda: bodies.test_bristle_on_incline_sticks_or_slides(40.0, True),
-             bodies.test_energy_is_conserved_in_a_vibrating_brush_with_elastic_contacts]
+             bodies.test_energy_is_conserved_in_a_vibrating_brush_with_elastic_contacts,
+             bodies.test_free_sphere_on_tapered_brush_conserves_energy,
+             bodies.test_free_box_edge_first_on_tapered_brush_conserves_energy]
     for test in tests:
         t0 = time.perf_counter()
         test()
