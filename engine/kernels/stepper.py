@@ -341,6 +341,111 @@ def check_state(nd, bd, fl, acc, err, dt, limits, time):
 
 
 @njit(cache=True)
+def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, limits, ms,
+                    time, want_energy, timed, c0, stats, orbit_n):
+    """Every force of the current state at ``time`` into ``nodes.f``/``t`` and
+    ``bodies.f``/``tq`` (bonds, gravity, loads, contacts, roots onto mounted bodies, orbit,
+    external loads, controllers, local damping), booking the step's work and dissipation
+    over ``dt``. Returns OK or an overlap failure code. ``dt = 0`` evaluates the forces of a
+    state without booking anything and without moving any contact's tangential spring (the
+    start of a run, :func:`advance`); ``c0`` is the clock at entry when ``timed``."""
+    if fl.bonds:
+        bond_node_forces(nd, bn, fl.bond_damping, want_energy, dt)
+        if fl.track_energy and fl.bond_damping:
+            acc[ACC_DISSIPATED] += bn.diss.sum()
+    else:
+        nd.f[:] = 0.0
+        nd.t[:] = 0.0
+    if timed:
+        c3 = _clock()
+        stage_time[SLOT_BONDS] += c3 - c0
+    if fl.rigid_bodies or fl.bristle_body or fl.mounted_roots:
+        bd.f[:] = 0.0
+        bd.tq[:] = 0.0
+    if fl.gravity:
+        add_gravity(nd.f, nd.mass, nd.inv_mass, tb.gravity)
+    if fl.loads:
+        acc[ACC_WORK] += add_loads(ld, nd.f, nd.v, time, dt)
+    if timed:
+        c4 = _clock()
+        stage_time[SLOT_EXTERNAL] += c4 - c3
+    if fl.bristle_bristle:
+        bristle_bristle_narrow(nd, bn, pl, tb, fl.friction_bristle, dt)
+        scatter_bristle_bristle(nd, bn, pl, stats)
+        acc[ACC_N_BB] = stats[0]
+        acc[ACC_E_BB] = stats[1]
+        acc[ACC_DISSIPATED] += stats[2]
+        if stats[3] > limits[0]:
+            p = int(stats[4])
+            err[0] = pl.a[p]
+            err[1] = stats[3]
+            err[2] = pl.b[p]
+            return FAIL_OVERLAP_BB
+        acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
+    if timed:
+        c5 = _clock()
+        stage_time[SLOT_BRISTLE_BRISTLE] += c5 - c4
+    if fl.bristle_body:
+        bristle_body_narrow(nd, bn, bl, bd, tb, fl.friction_body, dt)
+        scatter_bristle_body(nd, bn, bl, bd, stats)
+        acc[ACC_N_BODY] = stats[0]
+        acc[ACC_E_BODY] = stats[1]
+        acc[ACC_DISSIPATED] += stats[2]
+        if stats[3] > limits[0]:
+            c = int(stats[4])
+            err[0] = bl.s[c]
+            err[1] = stats[3]
+            err[2] = bl.b[c]
+            return FAIL_OVERLAP_BODY
+        acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
+    if timed:
+        c6 = _clock()
+        stage_time[SLOT_BRISTLE_BODY] += c6 - c5
+    if fl.body_body:
+        body_body_contacts(bd, tb, fl.friction_body_body, stats, dt)
+        if fl.mesh_mesh:
+            mesh_mesh_contacts(bd, tb, fl.friction_body_body, stats, dt)
+        acc[ACC_N_BODYBODY] = stats[0]
+        acc[ACC_E_BODYBODY] = stats[1]
+        acc[ACC_DISSIPATED] += stats[2]
+        if stats[3] > limits[0]:
+            err[0] = -1
+            err[1] = stats[3]
+            err[2] = limits[0]
+            return FAIL_OVERLAP_BODYBODY
+    if timed:
+        c7 = _clock()
+        stage_time[SLOT_BODY_BODY] += c7 - c6
+    if fl.mounted_roots:
+        roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
+    if fl.orbit:
+        orbit_body_forces(bd.motion, bd.pos, bd.q, bd.mass, bd.Ip, bd.f, bd.tq, orbit_n,
+                          ms.orbit[1] != 0.0)
+    if fl.external_loads:
+        acc[ACC_WORK] += apply_external(ms.external, bd.motion, bd.v, bd.w, bd.f, bd.tq,
+                                        dt)
+    if fl.controllers:
+        acc[ACC_WORK] += apply_controllers(ms.ctl_index, ms.ctl_par, ms.ctl_state, bd.pos,
+                                           bd.q, bd.v, bd.w, bd.mass, bd.f, bd.tq, time,
+                                           dt)
+    if fl.local_damping:
+        acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
+                                             limits[4], dt)
+    if fl.track_energy and (fl.bristle_body or fl.mounted_roots):
+        # work done by whatever drives kinematic bodies against the contact forces
+        for k in range(bd.pos.shape[0]):
+            if bd.motion[k] == KINEMATIC:
+                acc[ACC_WORK] -= dt * (bd.f[k, 0] * bd.v[k, 0] + bd.f[k, 1] * bd.v[k, 1]
+                                       + bd.f[k, 2] * bd.v[k, 2] + bd.tq[k, 0] * bd.w[k, 0]
+                                       + bd.tq[k, 1] * bd.w[k, 1]
+                                       + bd.tq[k, 2] * bd.w[k, 2])
+    if timed:
+        c8 = _clock()
+        stage_time[SLOT_EXTERNAL] += c8 - c7
+    return OK
+
+
+@njit(cache=True)
 def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits, ms):
     """Advance the system by up to ``n_steps`` steps. ``acc`` holds the time, the step count
     and the running energy/contact totals; ``limits`` = [max overlap / radius, max node step
@@ -349,6 +454,15 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
     skin = limits[3]
     orbit_n = ms.orbit[0] if fl.orbit else 0.0
     stats = np.zeros(5)
+    if acc[ACC_STEPS] == 0:
+        # the first half kick needs the forces of the initial state (the later ones use the
+        # forces the step before left in place, across calls too): without them a load
+        # present at t = 0 lost F dt / 2 of impulse and the leapfrog was first order
+        code = evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, 0.0,
+                               limits, ms, acc[ACC_TIME], fl.track_energy, False, 0.0, stats,
+                               orbit_n)
+        if code != OK:
+            return code, 0
     for it in range(n_steps):
         timed = fl.time_every > 0 and (int(acc[ACC_STEPS]) % fl.time_every == 0)
         if timed:
@@ -389,99 +503,13 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         # ---- forces
         last = it == n_steps - 1
         want_energy = fl.track_energy and (last or fl.bond_damping)
-        if fl.bonds:
-            bond_node_forces(nd, bn, fl.bond_damping, want_energy, dt)
-            if fl.track_energy and fl.bond_damping:
-                acc[ACC_DISSIPATED] += bn.diss.sum()
-        else:
-            nd.f[:] = 0.0
-            nd.t[:] = 0.0
-        if timed:
-            c3 = _clock()
-            stage_time[SLOT_BONDS] += c3 - c2
-        if fl.rigid_bodies or fl.bristle_body or fl.mounted_roots:
-            bd.f[:] = 0.0
-            bd.tq[:] = 0.0
-        if fl.gravity:
-            add_gravity(nd.f, nd.mass, nd.inv_mass, tb.gravity)
-        if fl.loads:
-            acc[ACC_WORK] += add_loads(ld, nd.f, nd.v, t_new, dt)
-        if timed:
-            c4 = _clock()
-            stage_time[SLOT_EXTERNAL] += c4 - c3
-        if fl.bristle_bristle:
-            bristle_bristle_narrow(nd, bn, pl, tb, fl.friction_bristle, dt)
-            scatter_bristle_bristle(nd, bn, pl, stats)
-            acc[ACC_N_BB] = stats[0]
-            acc[ACC_E_BB] = stats[1]
-            acc[ACC_DISSIPATED] += stats[2]
-            if stats[3] > limits[0]:
-                p = int(stats[4])
-                err[0] = pl.a[p]
-                err[1] = stats[3]
-                err[2] = pl.b[p]
-                return FAIL_OVERLAP_BB, it + 1
-            acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
-        if timed:
-            c5 = _clock()
-            stage_time[SLOT_BRISTLE_BRISTLE] += c5 - c4
-        if fl.bristle_body:
-            bristle_body_narrow(nd, bn, bl, bd, tb, fl.friction_body, dt)
-            scatter_bristle_body(nd, bn, bl, bd, stats)
-            acc[ACC_N_BODY] = stats[0]
-            acc[ACC_E_BODY] = stats[1]
-            acc[ACC_DISSIPATED] += stats[2]
-            if stats[3] > limits[0]:
-                c = int(stats[4])
-                err[0] = bl.s[c]
-                err[1] = stats[3]
-                err[2] = bl.b[c]
-                return FAIL_OVERLAP_BODY, it + 1
-            acc[ACC_MAX_OVERLAP] = max(acc[ACC_MAX_OVERLAP], stats[3])
-        if timed:
-            c6 = _clock()
-            stage_time[SLOT_BRISTLE_BODY] += c6 - c5
-        if fl.body_body:
-            body_body_contacts(bd, tb, fl.friction_body_body, stats, dt)
-            if fl.mesh_mesh:
-                mesh_mesh_contacts(bd, tb, fl.friction_body_body, stats, dt)
-            acc[ACC_N_BODYBODY] = stats[0]
-            acc[ACC_E_BODYBODY] = stats[1]
-            acc[ACC_DISSIPATED] += stats[2]
-            if stats[3] > limits[0]:
-                err[0] = -1
-                err[1] = stats[3]
-                err[2] = limits[0]
-                return FAIL_OVERLAP_BODYBODY, it + 1
-        if timed:
-            c7 = _clock()
-            stage_time[SLOT_BODY_BODY] += c7 - c6
-        if fl.mounted_roots:
-            roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
-        if fl.orbit:
-            orbit_body_forces(bd.motion, bd.pos, bd.q, bd.mass, bd.Ip, bd.f, bd.tq, orbit_n,
-                              ms.orbit[1] != 0.0)
-        if fl.external_loads:
-            acc[ACC_WORK] += apply_external(ms.external, bd.motion, bd.v, bd.w, bd.f, bd.tq,
-                                            dt)
-        if fl.controllers:
-            acc[ACC_WORK] += apply_controllers(ms.ctl_index, ms.ctl_par, ms.ctl_state, bd.pos,
-                                               bd.q, bd.v, bd.w, bd.mass, bd.f, bd.tq, t_new,
-                                               dt)
-        if fl.local_damping:
-            acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
-                                                 limits[4], dt)
-        if fl.track_energy and (fl.bristle_body or fl.mounted_roots):
-            # work done by whatever drives kinematic bodies against the contact forces
-            for k in range(bd.pos.shape[0]):
-                if bd.motion[k] == KINEMATIC:
-                    acc[ACC_WORK] -= dt * (bd.f[k, 0] * bd.v[k, 0] + bd.f[k, 1] * bd.v[k, 1]
-                                           + bd.f[k, 2] * bd.v[k, 2] + bd.tq[k, 0] * bd.w[k, 0]
-                                           + bd.tq[k, 1] * bd.w[k, 1]
-                                           + bd.tq[k, 2] * bd.w[k, 2])
+        code = evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt,
+                               limits, ms, t_new, want_energy, timed, c2 if timed else 0.0,
+                               stats, orbit_n)
+        if code != OK:
+            return code, it + 1
         if timed:
             c8 = _clock()
-            stage_time[SLOT_EXTERNAL] += c8 - c7
         # ---- second half kick
         nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
         if fl.rigid_bodies:
