@@ -22,7 +22,7 @@ import numpy as np
 from . import overlap
 from .kernels.bodies import FIXED
 from .build_bodies import BodyPart, build_bodies, start_on_profiles
-from .build_bristles import BristlePart, BrushInfo, build_bristles
+from .build_bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
 from .build_contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from .build_loads import build_loads, build_mission
 from .kernels.contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
@@ -124,7 +124,9 @@ def build(scene: Scene) -> System:
     # roots are placed on their mounts at the bodies' poses, then kinematic bodies start
     # on their profiles
     bristles = build_bristles(scene, mat_index, body_part.names, body_part.bodies)
+    placed_pos, placed_q = body_part.bodies.pos.copy(), body_part.bodies.q.copy()
     start_on_profiles(body_part.bodies)
+    start_with_mounts(bristles, body_part.bodies, placed_pos, placed_q)
     _check_initial_overlap(scene, bristles, body_part, warnings)
     needs = contact_needs(scene, bristles, body_part, tables, warnings)
     node_free = bristles.nodes.inv_mass > 0

@@ -230,3 +230,42 @@ def build_bristles(scene: Scene, mat_index: dict, body_names: list[str],
                        bristle_brush=np.asarray(bristle_brush, np.int64),
                        node_bristle=cat(node_cols, "bristle", 0, np.int64),
                        node_material=cat(node_cols, "material", 0, np.int64))
+
+
+def start_with_mounts(part: BristlePart, bodies: Bodies, build_pos: np.ndarray,
+                      build_q: np.ndarray) -> None:
+    """Give every node of a mounted brush its mount's rigid motion at t = 0: the velocity
+    ``v_body + omega x (x - x_body)`` and the spin ``omega`` (a brush carried by a moving or
+    spinning body starts moving with it instead of at rest, which jerked it in the first
+    steps), and, when the body's pose at t = 0 differs from the pose the roots were placed
+    at (``build_pos``, ``build_q``: a kinematic profile that starts elsewhere), the whole
+    brush moved rigidly with it so that its nodes stay on their roots' frames."""
+    nd = part.nodes
+    for b in part.brushes:
+        k = b.mount
+        if k < 0:
+            continue
+        sl = slice(b.first_node, b.first_node + b.n_bristles * b.n_nodes)
+        if not (np.array_equal(bodies.pos[k], build_pos[k])
+                and np.array_equal(bodies.q[k], build_q[k])):
+            turn = quat_mul(bodies.q[k], quat_conj(build_q[k]))
+            R = quat_to_matrix(turn)
+            nd.x[sl] = bodies.pos[k] + rotate_rows(R, nd.x[sl] - build_pos[k])
+            nd.q[sl] = quat_mul(turn, nd.q[sl])
+            nd.x_build[sl] = nd.x[sl]
+            nd.x0[sl] = nd.x[sl]
+        v, w = _start_velocity(bodies, k)
+        nd.v[sl] = v + np.cross(w, nd.x[sl] - bodies.pos[k])
+        nd.w[sl] = w
+
+
+def _start_velocity(bodies: Bodies, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Body k's velocity and angular velocity as the run starts: a kinematic body whose
+    first profile segment starts at t = 0 moves off with that segment's initial velocity
+    (``kinematic_state`` reports it at rest at the very instant t = 0)."""
+    from .kernels.bodies import KINEMATIC
+    if bodies.motion[k] == KINEMATIC:
+        c = int(bodies.seg_start[k])
+        if bodies.t0[c] <= 0.0 < bodies.t1[c]:
+            return bodies.v0[c].copy(), bodies.wseg[c].copy()
+    return bodies.v[k].copy(), bodies.w[k].copy()
