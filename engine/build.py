@@ -230,7 +230,8 @@ def _timestep(scene: Scene, bristles: BristlePart, body_part: BodyPart, tables: 
     if N and (needs.bristle_body or needs.body_body):
         speed, fastest = max_body_speed(body_part.bodies, body_part.bodies.collide)
         body_speed = (speed, body_part.names[fastest] if fastest >= 0 else "")
-    return choose_dt(sysinfo, scene.run, r_min, body_speed, warnings)
+    return choose_dt(sysinfo, scene.run, r_min, body_speed, warnings,
+                     local_damping=scene.environment.local_damping)
 
 
 def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tables,

@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+import textwrap
+from typing import Optional, Sequence
 
 
 class _Figures:
@@ -54,11 +55,17 @@ def split_phases(depths, forces, phases):
     return ld, ud
 
 
-def plot_force_depth(curves: Sequence[tuple], path: Path, title: str) -> None:
+def plot_force_depth(curves: Sequence[tuple], path: Path, title: str,
+                     warning: Optional[str] = None) -> None:
     """Loading (solid) and unloading (dashed) force-depth curves: ``curves`` is a list of
-    ``(label, depths_m, forces_N, phases)``."""
+    ``(label, depths_m, forces_N, phases)`` (NaN forces, unconverged holds, are left out);
+    ``warning`` is written across the plot in red."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 5))
+    if warning:
+        ax.text(0.5, 0.5, "\n".join(textwrap.wrap(warning, 50)), transform=ax.transAxes,
+                ha="center", va="center", color="red", fontsize=10, zorder=10,
+                bbox=dict(facecolor="white", alpha=0.8, edgecolor="red"))
     for i, (label, depths, forces, phases) in enumerate(curves):
         color = f"C{i % 10}"
         ld, ud = split_phases(depths, forces, phases)

@@ -26,6 +26,10 @@ PROTOCOL_DEFAULTS = {
     "qs_checks_per_period": 100,  # balance checks per period of the slowest bristle
     "qs_max_acceleration": 4.0,  # m/s^2, a_m of each increment's parabolic move
     "qs_increments": 1,          # increments per step, each settled and its slip committed
+    # m, standard deviation of a seeded scatter of the tips in the base plane given to every
+    # brush that has none (tip_variance 0), both methods: a perfectly straight brush under a
+    # symmetric wedge otherwise sits on an unstable symmetric equilibrium (docs/studies.md)
+    "tip_scatter": 1e-6,
 }
 METHODS = ("quasi_static", "dynamic")
 METHOD_NOTES = {
@@ -89,6 +93,8 @@ def make_protocol(scene: dict, *, body: str = "wedge", brush: Optional[str] = No
             raise StudyInputError(f"{k} = {proto[k]}: must be > 0")
     if not 0 <= proto["qs_local_damping"] < 1:
         raise StudyInputError(f"qs_local_damping = {proto['qs_local_damping']}: in [0, 1)")
+    if not proto["tip_scatter"] >= 0:
+        raise StudyInputError(f"tip_scatter = {proto['tip_scatter']}: must be >= 0")
     if not 0 < proto["qs_dt_safety"] <= 1:
         raise StudyInputError(f"qs_dt_safety = {proto['qs_dt_safety']}: in (0, 1]")
     if proto["qs_inertia_scaling"] not in ("none", "equalize"):

@@ -28,7 +28,7 @@ from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options
                              protocol_from_options, step_duration)
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
                            validate_scenes, wedge_angle_deg)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED
 
 
 @dataclass
@@ -140,7 +140,8 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
     for spec, o in zip(specs, outcomes):
         if not o.ok:
             continue
-        s = o.summary
+        # NaN forces (holds that hit their limit) come back from JSON as "nan"
+        s = dict(o.summary, force_N=[float(f) for f in o.summary["force_N"]])
         angle = spec.params["angle_deg"]
         label = f"{angle:g} deg" if angle is not None else spec.run_id
         curves.append((label, s["depth_m"], s["force_N"], s["phase"]))
@@ -158,15 +159,23 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
             write_force_depth_csv(out / f"force_depth_{safe_id(spec.run_id)}.csv",
                                   s["depth_m"], s["force_N"], s["phase"])
     done = [r for r in rows]
+    conv = {"converged": [int(bool(r[5])) for r in done]}
     if single and done:
         write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
-                              [r[3] for r in done], [r[4] for r in done])
+                              [r[3] for r in done], [r[4] for r in done], conv)
     elif done:
         write_force_depth_csv(out / "force_depth.csv", [r[2] for r in done],
                               [r[3] for r in done], [r[4] for r in done],
                               {"angle_deg": [f"{r[1]:g}" if r[1] is not None else ""
                                              for r in done],
-                               "run_id": [r[0] for r in done]})
+                               "run_id": [r[0] for r in done], **conv})
+    unconverged = {rid: c["hold_limit_hits"] for rid, c in checks.items()
+                   if c["hold_limit_hits"]}
+    warning = None
+    if unconverged:
+        warning = ("NOT RECORDED: " + ", ".join(f"{rid} {n} hold(s)" for rid, n in
+                                                unconverged.items())
+                   + " hit the hold limit (force NaN in force_depth.csv, converged = 0)")
     with open(out / "wedge_records.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["run_id", "angle_deg", "depth_m", "force_N", "phase", "converged"])
@@ -175,7 +184,8 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
                         f"{r[3]:.9g}", r[4], int(bool(r[5]))])
     if curves:
         plot_force_depth(curves, out / "force_depth.png",
-                         "Wedge force against depth (hold-until-steady, seed 4.2)")
+                         "Wedge force against depth (hold-until-steady, seed 4.2)",
+                         warning=warning)
     inc = {}
     for spec, o, fine in zip(specs, outcomes, increment_outcomes):
         if o.ok and fine.ok:
@@ -189,6 +199,8 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
         "method": METHOD_NOTES,
         "checks": checks,
         "protocols": {s.run_id: s.params["protocol"] for s in specs}}
+    if warning:
+        summary["warning"] = warning
     if increment_outcomes:
         summary["increment_check"] = inc
     write_json_atomic(out / "study.json", summary)
@@ -208,12 +220,18 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
               f"{c['tolerance']:.0%}")
     print(f"study wall time {wall:.1f} s; outputs in {out}/ (force_depth.csv, "
           f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
-    return report_failures(list(outcomes) + list(increment_outcomes))
+    code = report_failures(list(outcomes) + list(increment_outcomes))
+    if warning:
+        _err("WARNING: " + warning + "; see docs/studies.md (lower --max-hold's cost with "
+             "a smaller run.dt_safety, or use --method dynamic)")
+        return code or EXIT_FAILED
+    return code
 
 
 def write_force_depth_csv(path: Path, depths, forces, phases, extra: Optional[dict] = None
                           ) -> None:
-    """``depth_m,force_N,phase`` (then the ``extra`` columns, each a list)."""
+    """``depth_m,force_N,phase`` (then the ``extra`` columns, each a list; the study adds
+    ``converged``: 0 where the hold hit its limit, whose force is written as ``nan``)."""
     extra = extra or {}
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")

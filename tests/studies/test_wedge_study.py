@@ -24,7 +24,8 @@ def test_wedge_command_writes_cycle_and_restarts(small_wedge_scene, write_scene,
 
     with open(out / "force_depth.csv", newline="") as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == ["depth_m", "force_N", "phase"]
+    assert rows[0] == ["depth_m", "force_N", "phase", "converged"]
+    assert [r[3] for r in rows[1:]] == ["1"] * (len(rows) - 1)
     depth = [float(r[0]) for r in rows[1:]]
     force = [float(r[1]) for r in rows[1:]]
     phase = [r[2] for r in rows[1:]]
