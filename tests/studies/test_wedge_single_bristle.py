@@ -14,6 +14,7 @@ import csv
 import importlib.util
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,8 +30,9 @@ def _elastica():
     spec = importlib.util.spec_from_file_location(
         "elastica_contact", ROOT / "tests" / "engine" / "elastica_contact.py")
     mod = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("elastica_contact", mod)  # its dataclass looks itself up there
     spec.loader.exec_module(mod)
-    return mod
+    return sys.modules["elastica_contact"]
 
 
 def single_bristle_scene(*, apex_y=None) -> dict:
@@ -151,7 +153,8 @@ def test_a_hold_that_hits_its_limit_is_refused_loudly(tmp_path, capsys):
     assert "hold limit" in capsys.readouterr().err
     study = json.loads((out / "study.json").read_text())
     assert "hit the hold limit" in study["warning"]
-    assert study["checks"]["wedge_60_single"]["hold_limit_hits"] == 2
+    check, = study["checks"].values()
+    assert check["hold_limit_hits"] == 2
 
 
 def test_symmetric_single_bristle_buckles_onto_a_face(tmp_path):
