@@ -28,7 +28,7 @@ from .runner import RunSpec
 from .study_command import (check_common_options, report_failures, run_many_from_args,
                             set_command)
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
-from .wedge import TASK
+from .wedge import TASK, numeric_summary
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
@@ -149,7 +149,7 @@ def refinement_table(levels, outcomes, ceiling) -> list[dict]:
     for n, o in zip(levels, outcomes):
         if not o.ok:
             continue
-        s = o.summary
+        s = numeric_summary(o.summary)
         force = [f for f, ph in zip(s["force_N"], s["phase"]) if ph == "load"][-1]
         change = float("nan") if prev is None else force - prev
         rows.append({"nodes_per_bristle": n, "force_N": force, "change_N": change,

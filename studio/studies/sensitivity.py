@@ -38,7 +38,7 @@ from .runner import RunSpec
 from .study_command import (check_common_options, report_failures, run_many_from_args,
                             set_command)
 from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
-from .wedge import TASK
+from .wedge import TASK, numeric_summary
 from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
@@ -254,7 +254,7 @@ def write_sensitivity_outputs(out: Path, specs, outcomes, wall) -> int:
     for spec, o in zip(specs, outcomes):
         if not o.ok:
             continue
-        s, pr = o.summary, spec.params
+        s, pr = numeric_summary(o.summary), spec.params
         by_scene.setdefault(pr["scene"], []).append((pr, s))
         for d, f, ph in zip(s["depth_m"], s["force_N"], s["phase"]):
             rows.append([pr["scene"], "" if pr["angle_deg"] is None else f"{pr['angle_deg']:.6g}",
@@ -326,6 +326,7 @@ def mean_std_table(summaries: list[dict]) -> list[dict]:
 
     acc: dict = {}
     for s in summaries:
+        s = numeric_summary(s)
         for d, f, ph in zip(s["depth_m"], s["force_N"], s["phase"]):
             acc.setdefault((ph, round(d, 9)), []).append(f)
     rows = []

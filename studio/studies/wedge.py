@@ -347,6 +347,15 @@ def read_run_h5(path) -> dict:
 
 
 # ----------------------------------------------------------------------------- curves
+def numeric_summary(summary: dict) -> dict:
+    """A wedge run's summary with its forces as floats: a hold that hit its limit has a NaN
+    force, which comes back from the outcome's JSON as the string "nan"."""
+    out = dict(summary, force_N=[float(f) for f in summary["force_N"]])
+    if "peak_force_N" in out:
+        out["peak_force_N"] = float(out["peak_force_N"])
+    return out
+
+
 def curve_checks(depths, forces, phases) -> dict:
     """Seed 4.2.2's observations for one loading/unloading curve: non-linear growth (the
     secant stiffness F/d at full depth exceeds that at the first step), unloading below

@@ -23,7 +23,8 @@ from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
 from .study_command import (check_common_options, report_failures, run_many_from_args,
                             set_command)
-from .wedge import INCREMENT_TOLERANCE, TASK, curve_checks, increment_check
+from .wedge import (INCREMENT_TOLERANCE, TASK, curve_checks, increment_check,
+                    numeric_summary)
 from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options,
                              protocol_from_options, step_duration)
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
@@ -140,8 +141,7 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
     for spec, o in zip(specs, outcomes):
         if not o.ok:
             continue
-        # NaN forces (holds that hit their limit) come back from JSON as "nan"
-        s = dict(o.summary, force_N=[float(f) for f in o.summary["force_N"]])
+        s = numeric_summary(o.summary)
         angle = spec.params["angle_deg"]
         label = f"{angle:g} deg" if angle is not None else spec.run_id
         curves.append((label, s["depth_m"], s["force_N"], s["phase"]))
@@ -222,8 +222,8 @@ def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
           f"force_depth.png, wedge_records.csv, study.json, runs/*.h5)")
     code = report_failures(list(outcomes) + list(increment_outcomes))
     if warning:
-        _err("WARNING: " + warning + "; see docs/studies.md (lower --max-hold's cost with "
-             "a smaller run.dt_safety, or use --method dynamic)")
+        _err("WARNING: " + warning + ": those records are no equilibria (docs/studies.md; "
+             "a longer --max-hold or --method dynamic may settle them)")
         return code or EXIT_FAILED
     return code
 
