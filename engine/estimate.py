@@ -21,11 +21,15 @@ from typing import Optional
 
 from .spec import Scene
 
-# a built node holds about this many bytes of arrays (state, bonds, contact lists with
-# their capacity, recorder buffers): measured on the presets, rounded up
+# The peak memory of a process that builds and runs the scene: a fixed part and a part per
+# node. Measured (ru_maxrss, kernels loaded from the cache) on 100 x 100 x 8 box-pressed
+# brushes and larger (tests/engine/test_build_memory.py): ~230 MB for the interpreter,
+# numpy, scipy, h5py and the loaded kernels, plus ~1.2 KB per node for the build (state,
+# bonds, the build's bounded checks) and the run; 2 KB per node leaves room for contact
+# lists that grow in deep contact and the recorder's buffers
 BYTES_PER_NODE = 2_000
 BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
-BYTES_FIXED = 64 * 2**20   # the engine, numba and the interpreter
+BYTES_FIXED = 320 * 2**20  # the interpreter, the libraries and the loaded kernels
 # recorded bytes per node and frame of each per-node channel, as docs/results.md lays them
 # out: nodes/positions (N, 3) f8; nodes/velocities and angular_velocities (N, 3) f8 each;
 # bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels

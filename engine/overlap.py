@@ -267,12 +267,21 @@ def _bristle_bristle(positions, radius, bonds, node_bristle, bristle_names, bris
         pairs = cKDTree(mid).query_pairs(reach, output_type="ndarray")
         i, j = pairs[:, 0], pairs[:, 1]
     bi, bj = node_bristle[bonds[i, 0]], node_bristle[bonds[j, 0]]
-    other = bi != bj
+    # different bristles whose bounding spheres (mid, half length + radius) meet
+    gap = mid[i] - mid[j]
+    bound = half[i] + half[j] + r_max[i] + r_max[j]
+    other = (bi != bj) & (np.einsum("ij,ij->i", gap, gap) <= bound * bound)
+    del gap, bound
     i, j, bi, bj = i[other], j[other], bi[other], bj[other]
     if not len(i):
         return []
-    d, s, t = segment_distances(p0[i], p1[i], p0[j], p1[j])
-    depth = (r0[i] + (r1[i] - r0[i]) * s) + (r0[j] + (r1[j] - r0[j]) * t) - d
+    hit = np.zeros(len(i), bool)
+    depth = np.zeros(len(i))
+    for s in range(0, len(i), _CHUNK):  # a bounded number of pairs at once
+        c = slice(s, s + _CHUNK)
+        ic, jc = i[c], j[c]
+        d, sa, tb = segment_distances(p0[ic], p1[ic], p0[jc], p1[jc])
+        depth[c] = (r0[ic] + (r1[ic] - r0[ic]) * sa) + (r0[jc] + (r1[jc] - r0[jc]) * tb) - d
     hit = depth > tol
     out = []
     if not hit.any():
