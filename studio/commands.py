@@ -75,6 +75,7 @@ def cmd_validate(args) -> int:
     cost = engine.estimate(scene)
     problem = size_problem(scene, args, args.scene)
     if problem:
+        print(f"estimate: {cost.summary()}", flush=True)
         _err(problem + " (--estimate-only prints the estimate without building)")
         return EXIT_BAD_INPUT
     if args.estimate_only:
