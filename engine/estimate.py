@@ -42,7 +42,8 @@ MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
 class Cost:
     """The size of a scene and of its run. ``dt`` is the estimate (or the scene's own),
     ``steps`` the steps to ``duration``, ``frames`` the recorded frames; ``memory_bytes``
-    the build's arrays, ``result_bytes`` the result file (uncompressed);
+    an upper bound on the peak memory of a process that builds and runs the scene (with
+    the kernels loaded from the cache; ``tests/engine/test_build_memory.py``), ``result_bytes`` the result file (uncompressed);
     ``node_steps = n_nodes * steps`` (what the run's wall time grows with)."""
 
     n_bristles: int
