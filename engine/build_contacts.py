@@ -218,12 +218,17 @@ def _roots_move(brushes, motion) -> np.ndarray:
     return np.array([b.mount >= 0 and motion[b.mount] != FIXED for b in brushes], bool)
 
 
-def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motion):
-    """Per node, how many other bristles can touch its segments. Bristles whose roots are
-    fixed, or ride on one rigid base, keep their roots' distances, and a point of a bristle
-    stays within its reach (``_node_reach``) of its root: node i of bristle b and bristle c
-    can meet only if |root_b - root_c| <= reach_i + reach of c's tip. A bristle on a moving
-    base can meet every bristle of the other bases."""
+def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motion,
+                      cap=BRISTLE_CONTACTS_PER_NODE):
+    """Per node, how many other bristles can touch its segments, counted up to ``cap`` (the
+    most the timestep charges a node, ``engine.timestep.BRISTLE_CONTACTS_PER_NODE``). Bristles
+    whose roots are fixed, or ride on one rigid base, keep their roots' distances, and a
+    point of a bristle stays within its reach (``_node_reach``) of its root: node i of
+    bristle b and bristle c can meet only if |root_b - root_c| <= reach_i + reach of c's
+    tip. A bristle on a moving base can meet every bristle of the other bases.
+
+    Counts only, never the pairs: memory stays a few arrays of the node count whatever the
+    brush's density (``_count_within``)."""
     N = x.shape[0]
     count = np.zeros(N, np.int64)
     if n_bristle < 2:
@@ -239,32 +244,86 @@ def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motio
     frame = np.array([brushes[b].mount if moving[b] else -1 for b in brush_of], np.int64)
     for f in np.unique(frame):
         members = np.flatnonzero(frame == f)
-        reach_tip = reach[tips[members]]
         nodes = np.flatnonzero(np.isin(nbristle, members))
-        hits = _roots_within(root[bf[members]], root[nodes], reach[nodes] + reach_tip.max())
-        for n, h in zip(nodes, hits):
-            h = np.asarray(h, np.int64)
-            d = np.linalg.norm(root[bf[members[h]]] - root[n], axis=1)
-            count[n] += int(np.count_nonzero((d <= reach[n] + reach_tip[h])
-                                             & (members[h] != nbristle[n])))
+        count[nodes] += _count_within(root[bf[members]], reach[tips[members]], members,
+                                      reach[nodes], nbristle[nodes], cap)
         others = int(np.count_nonzero(frame != f))
         if others and (f >= 0 or np.any(frame >= 0)):
             # another base moves relative to this one: any bristle of it may come
             count[nodes] += others if f >= 0 else int(np.count_nonzero(frame >= 0))
-    return count
+    return np.minimum(count, cap)
 
 
-_BRUTE_PAIRS = 1_000_000  # up to this many root-node pairs numpy compares all of them
+_BRUTE_PAIRS = 1_000_000   # up to this many root-node pairs numpy compares all of them
+_TIP_GROUPS = 16           # distinct tip reaches counted group by group (a tree each)
+_PAIR_BUDGET = 1_000_000   # root-node pairs held at once by the general count
 
 
-def _roots_within(roots, points, radius):
-    """Per point, the indices of the roots within its radius. A k-d tree for large brushes;
-    small ones compare every pair, which costs less than importing scipy.spatial."""
-    if roots.shape[0] * points.shape[0] > _BRUTE_PAIRS:
-        from scipy.spatial import cKDTree
-        return cKDTree(roots).query_ball_point(points, radius)
-    d2 = ((points[:, None, :] - roots[None, :, :]) ** 2).sum(axis=2)
-    return [np.flatnonzero(row <= r * r) for row, r in zip(d2, radius)]
+def _count_within(roots, reach_tip, owner, reach, node_owner, cap):
+    """Per node, how many roots other than its own bristle's lie within ``reach +
+    reach_tip`` of its root (``|root_c - root_own| <= reach_node + reach_tip_c``), counted
+    up to ``cap``. ``roots``, ``reach_tip``: per bristle of ``owner`` (sorted bristle
+    indices); ``reach``, ``node_owner``: per node. Small brushes compare every pair. Large
+    ones use a k-d tree, never listing more than ``_PAIR_BUDGET`` pairs: when the tips have
+    a few distinct reaches (every bristle of a brush alike), the ``cap + 1`` nearest roots of
+    each reach level per bristle suffice (within one level the test is a radius); else
+    (tip variance gives every bristle its own reach) bristle chunk by bristle chunk."""
+    out = np.zeros(len(reach), np.int64)
+    if not len(reach) or not len(roots):
+        return out
+    own = np.searchsorted(owner, node_owner)
+    if roots.shape[0] * len(reach) <= _BRUTE_PAIRS:
+        d = np.linalg.norm(roots[own][:, None, :] - roots[None, :, :], axis=2)
+        hit = (d <= reach[:, None] + reach_tip[None, :]) & (owner[None, :]
+                                                             != node_owner[:, None])
+        return np.minimum(hit.sum(axis=1), cap).astype(np.int64)
+    from scipy.spatial import cKDTree
+
+    levels = np.unique(reach_tip)
+    bristle_reach = np.zeros(len(roots))
+    np.maximum.at(bristle_reach, own, reach)
+    if len(levels) <= _TIP_GROUPS:
+        k = min(cap + 1, len(roots))
+        for level in levels:
+            group = np.flatnonzero(reach_tip == level)
+            tree = cKDTree(roots[group])
+            kk = min(k, len(group))
+            # distances to the kk nearest roots of this level, per bristle (inf beyond)
+            d, _ = tree.query(roots, k=[*range(1, kk + 1)],
+                              distance_upper_bound=float(bristle_reach.max() + level)
+                              * (1 + 1e-12))
+            dn = d[own]                                   # per node, sorted ascending
+            within = (dn <= (reach + level)[:, None]).sum(axis=1)
+            # the own root (distance 0) is one of them when the own tip is at this level
+            out += within - (reach_tip[own] == level)
+        return np.minimum(out, cap)
+    tree = cKDTree(roots)
+    r_max = bristle_reach + float(reach_tip.max())
+    lengths = np.asarray(tree.query_ball_point(roots, r_max, return_length=True), np.int64)
+    node_start = np.searchsorted(own, np.arange(len(roots) + 1))  # own is sorted
+    start = 0
+    while start < len(roots):
+        stop = start + 1
+        total = int(lengths[start])
+        while stop < len(roots) and total + lengths[stop] <= _PAIR_BUDGET:
+            total += int(lengths[stop])
+            stop += 1
+        lists = tree.query_ball_point(roots[start:stop], r_max[start:stop])
+        sizes = np.fromiter((len(h) for h in lists), np.int64, stop - start)
+        c = np.fromiter((i for h in lists for i in h), np.int64, int(sizes.sum()))
+        b = np.repeat(np.arange(start, stop), sizes)
+        keep = c != b
+        b, c = b[keep], c[keep]
+        slack = np.linalg.norm(roots[c] - roots[b], axis=1) - reach_tip[c]
+        order = np.lexsort((slack, b))                   # per bristle, slack ascending
+        b, slack = b[order], slack[order]
+        first = np.searchsorted(b, np.arange(start, stop + 1))
+        for j in range(start, stop):                     # per bristle: its nodes at once
+            s_j = slack[first[j - start]:first[j - start + 1]]
+            nodes = slice(node_start[j], node_start[j + 1])
+            out[nodes] = np.searchsorted(s_j, reach[nodes], side="right")
+        start = stop
+    return np.minimum(out, cap)
 
 
 def _body_regions(bodies, after_free):

@@ -21,11 +21,17 @@ from typing import Optional
 
 from .spec import Scene
 
-# a built node holds about this many bytes of arrays (state, bonds, contact lists with
-# their capacity, recorder buffers): measured on the presets, rounded up
+# The peak memory of a process that builds and runs the scene: a fixed part and a part per
+# node. Measured (ru_maxrss, kernels loaded from the cache) on 100 x 100 x 8 box-pressed
+# brushes and larger (tests/engine/test_build_memory.py): ~230 MB for the interpreter,
+# numpy, scipy, h5py and the loaded kernels, plus ~1.2 KB per node for the build (state,
+# bonds, the build's bounded checks) and the run; 2 KB per node leaves room for contact
+# lists that grow in deep contact and the recorder's buffers. A first run that compiles
+# the stepping kernels peaked at 626 MB for 80,000 nodes (400 MB above the same run with a
+# warm cache): the fixed part covers that compile too
 BYTES_PER_NODE = 2_000
 BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
-BYTES_FIXED = 64 * 2**20   # the engine, numba and the interpreter
+BYTES_FIXED = 768 * 2**20  # the interpreter, the libraries, the kernels (compiled or loaded)
 # recorded bytes per node and frame of each per-node channel, as docs/results.md lays them
 # out: nodes/positions (N, 3) f8; nodes/velocities and angular_velocities (N, 3) f8 each;
 # bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels
@@ -38,7 +44,8 @@ MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
 class Cost:
     """The size of a scene and of its run. ``dt`` is the estimate (or the scene's own),
     ``steps`` the steps to ``duration``, ``frames`` the recorded frames; ``memory_bytes``
-    the build's arrays, ``result_bytes`` the result file (uncompressed);
+    an upper bound on the peak memory of a process that builds and runs the scene
+    (``tests/engine/test_build_memory.py``), ``result_bytes`` the result file (uncompressed);
     ``node_steps = n_nodes * steps`` (what the run's wall time grows with)."""
 
     n_bristles: int

@@ -28,7 +28,8 @@ import numpy as np
 
 TOLERANCE_RATIO = 0.01     # overlap below this fraction of the radius is touching, not overlap
 MAX_CHECKED_SEGMENTS = 200_000  # above this, bristle-bristle pairs are not searched (too slow)
-_CHUNK = 2_000_000          # point x triangle pairs evaluated at once (memory ~ 0.5 GB peak)
+_CHUNK = 200_000            # point x triangle pairs evaluated at once (~ 20 temporaries of
+                            # (pairs, 3) float64 alive: ~ 100 MB peak whatever the scene)
 
 
 @dataclass
@@ -197,8 +198,10 @@ def _segment_samples(positions, radius, bonds):
     length = np.linalg.norm(p1 - p0, axis=1)
     n = np.clip(np.ceil(length / np.maximum(np.minimum(r0, r1), 1e-12)), 1, 16).astype(int)
     seg = np.repeat(np.arange(len(bonds)), n + 1)
-    frac = np.concatenate([np.linspace(0.0, 1.0, k + 1) for k in n]) if len(n) else \
-        np.zeros(0)
+    # k / n for k = 0..n of each segment, without a Python loop over the segments
+    start = np.cumsum(n + 1) - (n + 1)
+    k = np.arange(len(seg)) - np.repeat(start, n + 1)
+    frac = k / n[seg] if len(seg) else np.zeros(0)
     pts = p0[seg] + (p1 - p0)[seg] * frac[:, None]
     rad = r0[seg] + (r1 - r0)[seg] * frac
     return pts, rad, seg
@@ -215,11 +218,13 @@ def _body_bristle(positions, radius, bonds, node_bristle, bristle_names, bristle
         if not body.collide or not len(body.triangles):
             continue
         v = np.asarray(body.vertices, float)
-        centre = 0.5 * (v.min(0) + v.max(0))
-        reach = float(np.linalg.norm(v - centre, axis=1).max())
+        lo, hi = v.min(0), v.max(0)
         if pts is None:
             pts, rad, seg = _segment_samples(positions, radius, bonds)
-        near = np.linalg.norm(pts - centre, axis=1) <= reach + rad
+        # a point farther than its radius from the body's bounding box cannot reach its
+        # surface: only the rest go to the (point x triangle) distances
+        outside = np.maximum(np.maximum(lo - pts, pts - hi), 0.0)
+        near = np.einsum("ij,ij->i", outside, outside) <= rad * rad
         near &= bristle_mount[seg_bristle[seg]] != k
         if not near.any():
             continue
@@ -262,12 +267,21 @@ def _bristle_bristle(positions, radius, bonds, node_bristle, bristle_names, bris
         pairs = cKDTree(mid).query_pairs(reach, output_type="ndarray")
         i, j = pairs[:, 0], pairs[:, 1]
     bi, bj = node_bristle[bonds[i, 0]], node_bristle[bonds[j, 0]]
-    other = bi != bj
+    # different bristles whose bounding spheres (mid, half length + radius) meet
+    gap = mid[i] - mid[j]
+    bound = half[i] + half[j] + r_max[i] + r_max[j]
+    other = (bi != bj) & (np.einsum("ij,ij->i", gap, gap) <= bound * bound)
+    del gap, bound
     i, j, bi, bj = i[other], j[other], bi[other], bj[other]
     if not len(i):
         return []
-    d, s, t = segment_distances(p0[i], p1[i], p0[j], p1[j])
-    depth = (r0[i] + (r1[i] - r0[i]) * s) + (r0[j] + (r1[j] - r0[j]) * t) - d
+    hit = np.zeros(len(i), bool)
+    depth = np.zeros(len(i))
+    for s in range(0, len(i), _CHUNK):  # a bounded number of pairs at once
+        c = slice(s, s + _CHUNK)
+        ic, jc = i[c], j[c]
+        d, sa, tb = segment_distances(p0[ic], p1[ic], p0[jc], p1[jc])
+        depth[c] = (r0[ic] + (r1[ic] - r0[ic]) * sa) + (r0[jc] + (r1[jc] - r0[jc]) * tb) - d
     hit = depth > tol
     out = []
     if not hit.any():

@@ -35,6 +35,17 @@ COMMAND_MODULES = (app, convergence, studies_cli, serve_cli, dissipation)
 
 
 # ----------------------------------------------------------------------------- parser
+def _size_options(parser) -> None:
+    """The size guard of ``run`` and ``validate``: the scene's estimate against these limits,
+    before anything is built (``studio.commands.size_problem``)."""
+    parser.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
+                        help="refuse to build a scene with more bristle nodes (default "
+                             "2000000; 0: no limit)")
+    parser.add_argument("--max-memory-mb", type=float, default=8192.0, metavar="MB",
+                        help="refuse to build a scene estimated to need more memory for its "
+                             "build and run (default 8192; 0: no limit)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="brush-studio",
@@ -56,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated time to run to, s (default: the scene's run.duration)")
     r.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and no summary table")
+    _size_options(r)
     r.set_defaults(func=_cmd_run)
 
     d = sub.add_parser("demo", help="run the embedded default scene and plot it",
@@ -71,12 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="check a scene without running it")
     v.add_argument("scene", metavar="SCENE.json")
-    v.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
-                   help="refuse to build a scene with more bristle nodes (default 2000000; "
-                        "0: no limit)")
-    v.add_argument("--max-memory-mb", type=float, default=8192.0, metavar="MB",
-                   help="refuse to build a scene estimated to need more memory (default "
-                        "8192; 0: no limit)")
+    _size_options(v)
     v.add_argument("--estimate-only", action="store_true",
                    help="print the cost estimate and stop (no build)")
     v.set_defaults(func=_cmd_validate)

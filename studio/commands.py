@@ -23,9 +23,32 @@ def _load_scene(path):
         return None
 
 
+def size_problem(scene, args, path) -> str:
+    """Why ``scene`` is too large to build here (its estimate, ``engine.estimate``, against
+    ``args.max_nodes`` and ``args.max_memory_mb``, 0 or None: no limit), or "". Called
+    before anything is built: the estimate costs microseconds whatever the size, and it
+    bounds the peak memory of the build and the run (``tests/engine/test_estimate.py``)."""
+    import engine
+
+    cost = engine.estimate(scene)
+    for name, value, allowed, unit in (
+            ("--max-nodes", cost.n_nodes, getattr(args, "max_nodes", None), "bristle nodes"),
+            ("--max-memory-mb", cost.memory_bytes / 2**20, getattr(args, "max_memory_mb", None),
+             "MiB of memory for the build and the run (estimated)")):
+        if allowed and value > allowed:
+            return (f"{path}: too large to build here: {value:.4g} {unit} against {name} "
+                    f"{allowed:g} (raise {name} to build it anyway). Estimate: "
+                    f"{cost.summary()}")
+    return ""
+
+
 def cmd_run(args) -> int:
     scene = _load_scene(args.scene)
     if scene is None:
+        return EXIT_BAD_INPUT
+    problem = size_problem(scene, args, args.scene)
+    if problem:
+        _err(problem)
         return EXIT_BAD_INPUT
     if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
         _err(f"--until = {args.until}: must be a finite time > 0 s")
@@ -50,14 +73,11 @@ def cmd_validate(args) -> int:
     # the estimate first (microseconds whatever the size): a scene too large to build here
     # is refused before any array is allocated
     cost = engine.estimate(scene)
-    for name, value, allowed in (("--max-nodes", cost.n_nodes, args.max_nodes),
-                                 ("--max-memory-mb", cost.memory_bytes / 2**20,
-                                  args.max_memory_mb)):
-        if allowed and value > allowed:
-            print(f"estimate: {cost.summary()}", flush=True)
-            _err(f"{args.scene}: too large to build here: {value:.4g} against {name} "
-                 f"{allowed:g} (raise {name} to build it anyway, or --estimate-only)")
-            return EXIT_BAD_INPUT
+    problem = size_problem(scene, args, args.scene)
+    if problem:
+        print(f"estimate: {cost.summary()}", flush=True)
+        _err(problem + " (--estimate-only prints the estimate without building)")
+        return EXIT_BAD_INPUT
     if args.estimate_only:
         print(f"estimate: {cost.summary()}")
         return EXIT_OK

@@ -158,19 +158,34 @@ def test_the_bound_is_above_the_highest_frequency_of_the_linearised_bristle():
     assert omega_bound < 4.0 * omega_true, (omega_true, omega_bound)
 
 
-def test_root_neighbours_agree_between_brute_force_and_kd_tree(monkeypatch):
-    """Catches an off-by-radius or index mix-up in the all-pairs path that small brushes
-    take: both paths must list the same roots for every point (scipy's k-d tree is the
-    reference)."""
+@pytest.mark.parametrize("levels", [3, 0])
+@pytest.mark.parametrize("cap", [4, 10_000])
+def test_partner_counts_agree_on_every_path(monkeypatch, levels, cap):
+    """Catches an off-by-radius, a self-count, a wrong cap or an index mix-up in the three
+    ways the build counts the bristles that can reach a node (all pairs for small brushes;
+    the nearest roots per tip reach; chunks of listed pairs when every tip has its own
+    reach, ``levels = 0``): each must give the count of a plain double loop over roots and
+    nodes, capped at ``cap`` (uncapped with 10,000)."""
     build_mod = importlib.import_module("engine.build_contacts")
 
     rng = np.random.default_rng(3)
-    roots = rng.uniform(-1.0, 1.0, (300, 3))
-    points = rng.uniform(-1.0, 1.0, (120, 3))
-    radius = rng.uniform(0.05, 0.6, 120)
-    brute = build_mod._roots_within(roots, points, radius)
+    n_roots, n_nodes = 300, 1200
+    roots = rng.uniform(-1.0, 1.0, (n_roots, 3))
+    reach_tip = (rng.choice(rng.uniform(0.05, 0.3, levels), n_roots) if levels
+                 else rng.uniform(0.05, 0.3, n_roots))
+    owner = np.arange(n_roots) * 2          # bristle indices, sorted, not 0..n-1
+    node_owner = np.sort(owner[rng.integers(0, n_roots, n_nodes)])
+    own = np.searchsorted(owner, node_owner)
+    reach = rng.uniform(0.02, 0.4, n_nodes)
+    expected = np.array([min(cap, sum(1 for c in range(n_roots)
+                                      if owner[c] != node_owner[n]
+                                      and np.linalg.norm(roots[c] - roots[own[n]])
+                                      <= reach[n] + reach_tip[c])) for n in range(n_nodes)])
+    # a real test: counts from 0 to above the cap of 4
+    assert expected.min() == 0 and expected.max() >= 5 if cap > 4 else expected.max() == 4
+    brute = build_mod._count_within(roots, reach_tip, owner, reach, node_owner, cap)
     monkeypatch.setattr(build_mod, "_BRUTE_PAIRS", 0)
-    tree = build_mod._roots_within(roots, points, radius)
-    assert sum(len(h) for h in brute) > 300  # the radii reach many roots
-    for a, b in zip(brute, tree):
-        assert sorted(a) == sorted(b)
+    monkeypatch.setattr(build_mod, "_PAIR_BUDGET", 500)   # many chunks
+    tree = build_mod._count_within(roots, reach_tip, owner, reach, node_owner, cap)
+    np.testing.assert_array_equal(brute, expected)
+    np.testing.assert_array_equal(tree, expected)
