@@ -52,6 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="result file to write")
     r.add_argument("--summary", metavar="SUMMARY.json",
                    help="also write the run summary as JSON (written for failed runs too)")
+    r.add_argument("--parents", action="store_true",
+                   help="create the missing folders of -o and --summary (without it a "
+                        "missing folder is refused; outputs are only written as regular "
+                        "files, never onto a device, a named pipe or a folder)")
     r.add_argument("--until", type=float, metavar="T",
                    help="simulated time to run to, s (default: the scene's run.duration)")
     r.add_argument("-q", "--quiet", action="store_true",

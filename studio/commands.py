@@ -31,10 +31,13 @@ def cmd_run(args) -> int:
         _err(f"--until = {args.until}: must be a finite time > 0 s")
         return EXIT_BAD_INPUT
     for path, what in ((args.output, "-o/--output"), (args.summary, "--summary")):
-        problem = output_problem(Path(path), what) if path else None
+        problem = output_problem(Path(path), what, parents=args.parents) if path else None
         if problem:
             _err(problem)
             return EXIT_BAD_INPUT
+    if Path(args.output).suffix.lower() not in (".h5", ".hdf5", ".hdf"):
+        _err(f"note: {args.output} is written as an HDF5 result file (give it the .h5 "
+             f"extension to say so)")
     code, _ = run_in_terminal(scene, Path(args.output),
                               Path(args.summary) if args.summary else None, args.until,
                               args.quiet)

@@ -22,7 +22,9 @@ from .fmt import fmt_rate, fmt_seconds
 def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import refuse_special
+
+    refuse_special(path, "--summary")  # checked before the run; again right before writing
     path.write_text(json_text(data, indent=2) + "\n")
 
 
@@ -213,26 +215,30 @@ def run_in_terminal(scene, output: Path, summary_path: Optional[Path],
     return code, summary
 
 
-def output_problem(path: Path, what: str) -> Optional[str]:
+def output_problem(path: Path, what: str, parents: bool = False) -> Optional[str]:
     """Why ``path`` cannot be written as the file ``what`` (one line), or None: checked
-    before a run starts by creating its folder and opening the file for writing (a file
-    that did not exist is removed again), so that a bad ``-o`` or ``--summary`` does not
-    cost a whole run."""
-    import errno
+    before a run starts, so that a bad ``-o`` or ``--summary`` does not cost a whole run.
+    Only regular files are written (a device, a named pipe, a socket or a folder is refused
+    without being opened); a missing folder is refused unless ``parents`` (``--parents``),
+    which creates it. See :mod:`engine.output_paths`."""
+    from engine.output_paths import output_file_problem
 
+    import os
+
+    problem = output_file_problem(path, what, parents=parents)
+    if problem is not None:
+        return problem
     path = Path(path)
-    if path.is_dir():
-        return f"{what} {path}: is a directory (give a file name)"
-    existed = path.exists()
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "ab"):
-            pass
+        if parents:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        # a regular file or nothing (checked above): opening it cannot block; a file made
+        # by the probe is removed again
+        existed = path.exists()
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK, 0o666)
+        os.close(fd)
     except OSError as exc:
-        reason = exc.strerror or str(exc)
-        if exc.errno in (errno.ENOTDIR, errno.EEXIST):
-            reason = "a part of the path is a file, not a folder"
-        return f"{what} {path}: cannot be written ({reason})"
+        return f"{what} {path}: cannot be written ({exc.strerror or exc})"
     if not existed:
         try:
             path.unlink()
