@@ -425,7 +425,9 @@ class JobManager(WorkerMonitor):
     # ------------------------------------------------------------------ meshes
     def add_mesh(self, data: bytes, filename: str) -> dict:
         """Store an uploaded STL/OBJ/PLY mesh (:meth:`MeshStore.add_mesh`); over the storage
-        quota: :class:`StorageError`."""
+        quota or with less free space than ``min_free_bytes`` (``--min-free-mb``), as for
+        a submit: :class:`StorageError`."""
+        self.check_free_space()
         self.quota.admit(len(data), "the mesh")
         return self._meshes.add_mesh(data, filename)
 
