@@ -88,9 +88,13 @@ class ProgressBar:
     """A tqdm bar over simulated time, with steps/s and the engine's ETA as postfix."""
 
     # until the first progress report the engine may be compiling (a cold numba cache:
-    # minutes): the bar says so and shows no ETA; the rate and ETA then come from the steps
-    # between reports, so that the compile does not count in them (it gave "ETA 825 min")
-    STARTING = "compiling the engine (first run only) / starting"
+    # minutes): the bar says so only when numba reports a compile (a warm cache loads in
+    # seconds and says "starting"), shows no ETA, and its elapsed time keeps counting (a
+    # ticker thread redraws it: without reports it sat at [00:00]); the rate and ETA then
+    # come from the steps between reports, so that the compile does not count in them
+    STARTING = "starting"
+    COMPILING = "compiling the engine (first run only)"
+    TICK_S = 1.0
 
     def __init__(self, until: float, start: float, disable: bool):
         from tqdm import tqdm
@@ -105,12 +109,44 @@ class ProgressBar:
                         desc=self.STARTING)
         self.desc, self.postfix = self.STARTING, ""  # what the bar shows (also when off)
         self.bar.refresh()
+        self._done = threading.Event()  # the first report came, or the bar was closed
+        self._listener = _CompileSeen(self._compiling)
+        from numba.core import event
+
+        event.register("numba:compile", self._listener)
+        self._ticker = None
+        if not disable:
+            self._ticker = threading.Thread(target=self._tick, name="progress-ticker",
+                                            daemon=True)
+            self._ticker.start()
+
+    def _compiling(self) -> None:
+        if not self._done.is_set() and self.desc != self.COMPILING:
+            self.desc = self.COMPILING
+            self.bar.set_description_str(self.desc, refresh=False)
+
+    def _tick(self) -> None:
+        while not self._done.wait(self.TICK_S):
+            self.bar.refresh()  # the elapsed time moves while nothing is reported
+
+    def _stop_ticking(self) -> None:
+        if not self._done.is_set():
+            self._done.set()
+            from numba.core import event
+
+            try:
+                event.unregister("numba:compile", self._listener)
+            except (ValueError, KeyError):
+                pass
+            if self._ticker is not None and self._ticker is not threading.current_thread():
+                self._ticker.join(2.0)
 
     def __call__(self, p) -> None:
         import time as _time
 
         now = _time.monotonic()
         if self.last is None:
+            self._stop_ticking()
             self.desc = "simulating"
             self.bar.set_description_str(self.desc, refresh=False)
         elif now > self.last[0] and p.steps > self.last[1]:
@@ -127,10 +163,27 @@ class ProgressBar:
         self.bar.refresh()
 
     def close(self, completed: bool = False) -> None:
+        self._stop_ticking()
         if completed:  # the last step lands within rounding of the end time: show 100 %
             self.bar.n = self.bar.total
             self.bar.refresh()
         self.bar.close()
+
+
+class _CompileSeen:
+    """A numba event listener that calls ``seen()`` when a compile starts."""
+
+    def __new__(cls, seen):
+        from numba.core import event
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                seen()
+
+            def on_end(self, ev):
+                pass
+
+        return Listener()
 
 
 class CtrlC:
