@@ -47,7 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Load, build and run a scene with a progress bar. "
                                    "Ctrl-C cancels cleanly (the file keeps the frames so far "
                                    "and has status cancelled).")
-    r.add_argument("scene", metavar="SCENE.json")
+    r.add_argument("scene", metavar="SCENE.json",
+                   help="a scene file, or a preset's name (demo, wedge_30, ...)")
     r.add_argument("-o", "--output", metavar="RESULT.h5", required=True,
                    help="result file to write")
     r.add_argument("--summary", metavar="SUMMARY.json",
@@ -74,7 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_demo)
 
     v = sub.add_parser("validate", help="check a scene without running it")
-    v.add_argument("scene", metavar="SCENE.json")
+    v.add_argument("scene", metavar="SCENE.json",
+                   help="a scene file, or a preset's name (demo, wedge_30, ...)")
     v.add_argument("--max-nodes", type=int, default=2_000_000, metavar="N",
                    help="refuse to build a scene with more bristle nodes (default 2000000; "
                         "0: no limit)")

@@ -55,7 +55,8 @@ def summary_table(summary: dict, result_path=None) -> str:
             wall += (f"  (of which {fmt_seconds(compiled)} compiling the engine: not in the "
                      f"speed nor the stages)")
         rows.append(("wall time", wall))
-    if "node_steps_per_s" in summary:
+    if "node_steps_per_s" in summary and summary.get("n_nodes", 1) and \
+            summary["node_steps_per_s"]:
         speed = f"{fmt_rate(summary['node_steps_per_s'])} node-steps/s"
         if "steps_per_s" in summary:
             speed += f" ({fmt_rate(summary['steps_per_s'])} steps/s"
@@ -63,6 +64,8 @@ def summary_table(summary: dict, result_path=None) -> str:
                 speed += f", {summary['n_nodes']:,} nodes"
             speed += ")"
         rows.append(("speed", speed))
+    elif "steps_per_s" in summary:  # no bristles (bodies only): no node-steps to count
+        rows.append(("speed", f"{fmt_rate(summary['steps_per_s'])} steps/s (no bristles)"))
     stages = summary.get("stages") or {}
     if stages:
         total = sum(v for v in stages.values() if isinstance(v, (int, float))) or 1.0
