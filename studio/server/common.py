@@ -5,10 +5,33 @@ import json
 import math
 from typing import Optional
 
+MAX_ECHO_CHARS = 200  # a bad value is echoed in a 422 up to this length
+
+
+def short_value(value):
+    """``value`` as it is echoed in an error answer: itself when its JSON is short, else
+    the start of its JSON text and its length (a 6 MB list was echoed twice: a 15 MB
+    422)."""
+    try:
+        text = json.dumps(value, default=str)
+    except (TypeError, ValueError):
+        text = repr(value)
+    if len(text) <= MAX_ECHO_CHARS:
+        return value
+    return f"{text[:MAX_ECHO_CHARS]}... ({len(text)} characters)"
+
+
+def short_text(text: str, limit: int = 4 * MAX_ECHO_CHARS) -> str:
+    """A message cut to ``limit`` characters (saying how long it was)."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 def problem_detail(problems: list[dict]) -> list[dict]:
     """SceneError problems in FastAPI's 422 shape (``loc``, ``msg``, ``type``) plus the
-    engine's own ``field``, ``value``, ``allowed``."""
+    engine's own ``field``, ``value`` (shortened: :func:`short_value`), ``allowed``."""
     out = []
+    problems = [{**p, "value": short_value(p["value"])} for p in problems]
     for p in problems:
         loc = ["body"] + [int(x) if x.isdigit() else x for x in str(p["field"]).split(".")]
         out.append({"loc": loc, "msg": p["allowed"], "type": "scene_error",
@@ -106,7 +129,7 @@ def scene_error(exc):
     """An engine SceneError as a 422 answer naming every bad field."""
     from fastapi.responses import JSONResponse
 
-    problems = exc.as_dicts()
+    problems = [{**p, "value": short_value(p["value"])} for p in exc.as_dicts()]
     return JSONResponse(status_code=422, content={
         "detail": problem_detail(problems),
         "message": f"invalid scene: {len(problems)} problem(s): " +
