@@ -91,3 +91,17 @@ def test_an_output_without_extension_gets_a_notice(tmp_path, write_scene, tiny_s
     scene = str(write_scene(tiny_scene()))
     assert main(["run", scene, "-o", str(tmp_path / "out"), "-q", "--until", "1e-4"]) == 0
     assert "written as an HDF5 result file" in capsys.readouterr().err
+
+
+def test_a_study_into_a_named_pipe_is_refused(tmp_path, capsys):
+    # a study's -o names a folder: a named pipe (or a device) there is refused before any run
+    import os
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    assert main(["study", "rod", "-o", str(fifo), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "named pipe" in err and "Traceback" not in err
+    assert main(["study", "rod", "-o", str(tmp_path / "no" / "such"), "--workers", "1"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()
