@@ -22,8 +22,8 @@ from .store import jsonable
 STUDY_LOG = "log.txt"  # the study's printed output, in its output folder
 # a run stops, failed with "No space left on device", when its result's disk has less free:
 # HDF5 writing its file in SWMR mode onto a full disk crashed the worker (SIGSEGV) instead
-# of raising, so the run must stop before the disk is full (a few recorded chunks' worth)
-RUN_FREE_FLOOR_BYTES = 16 * 2**20
+# of raising, so the run must stop before the disk is full (1 MiB: a recorded chunk)
+RUN_FREE_FLOOR_BYTES = 2**20
 DISK_FULL = "No space left on device"
 
 
