@@ -67,7 +67,9 @@ class Cost:
 
     def summary(self) -> str:
         tri = "?" if self.n_triangles is None else f"{self.n_triangles}"
-        return (f"{self.n_bristles} bristles, {self.n_nodes} nodes, {tri} triangles; dt "
+        s = lambda n: "" if n == 1 else "s"  # noqa: E731  ("1 bristle")
+        return (f"{self.n_bristles} bristle{s(self.n_bristles)}, {self.n_nodes} "
+                f"node{s(self.n_nodes)}, {tri} triangles; dt "
                 f"{'(given) ' if self.dt_given else '~ '}{self.dt:.3g} s -> {self.steps:.3g} "
                 f"steps, {self.frames:.3g} frames; memory ~ {self.memory_bytes / 2**20:.0f} "
                 f"MiB, result ~ {self.result_bytes / 2**20:.0f} MiB")

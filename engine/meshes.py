@@ -110,6 +110,13 @@ def load_mesh_file(path: Union[str, Path], scale: float = 1.0,
     if not path.is_file():
         raise SceneError.single(field, str(path), "must name an existing mesh file "
                                 "(STL, OBJ or PLY)")
+    from .mesh_limits import mesh_bytes_problem
+
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt in ("stl", "obj", "ply"):  # counts read from the bytes before trimesh parses
+        problem = mesh_bytes_problem(path.read_bytes(), fmt, MAX_TRIANGLES)
+        if problem:
+            raise SceneError.single(field, str(path), problem)
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds on garbage input
@@ -250,7 +257,22 @@ def _build_geometry(body: spec_bodies.Body, field: str) -> BodyGeometry:
 
 # --------------------------------------------------------------------------- cache
 CACHE_ENTRIES = 64  # most recently used geometries kept; each is a few KB to a few MB
-_CACHE_DIR = Path(__file__).parent / "__pycache__" / "geometry"
+CACHE_ENV = "BRUSH_STUDIO_CACHE_DIR"
+
+
+def geometry_cache_dir() -> Path:
+    """Where built mesh geometries are cached: ``$BRUSH_STUDIO_CACHE_DIR/geometry`` if set,
+    else the user's cache folder (``$XDG_CACHE_HOME``, default ``~/.cache``) under
+    ``brush-studio/geometry``; never inside the package (read-only or shared when
+    installed)."""
+    own = os.environ.get(CACHE_ENV)
+    if own:
+        return Path(own).expanduser() / "geometry"
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base).expanduser() / "brush-studio" / "geometry"
+
+
+_CACHE_DIR = geometry_cache_dir()  # (read once, at import)
 
 
 def _cache_key(body: spec_bodies.Body):

@@ -45,6 +45,7 @@ import numpy as np
 from h5py import h5f, h5p
 
 from .jsonable import json_text
+from .output_paths import refuse_special
 
 FORMAT = "brush-studio-result"
 FORMAT_VERSION = 1
@@ -145,6 +146,9 @@ class Recorder:
         self._n_committed = 0   # rows counted by the n_frames attribute
         self._closed = False
         creating = self.path.with_name(f".{self.path.name}.creating")
+        # never a device, a named pipe or a folder: the file is renamed onto the path
+        refuse_special(self.path, "result file")
+        refuse_special(creating, "result file's temporary file")
         self._file = _open_for_writing(creating)
         try:
             f = self._file
@@ -180,6 +184,7 @@ class Recorder:
                                      f"(numeric, bool or str)")
             f.flush()
             f.swmr_mode = True  # from here on the file on disk is always readable
+            refuse_special(self.path, "result file")  # (again: it may have appeared since)
             os.replace(creating, self.path)  # the open handle follows the inode
         except BaseException:
             self._file.close()

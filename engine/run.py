@@ -21,6 +21,7 @@ from .compile_clock import CompileClock
 from .diagnosis import dt_cause, instability
 from .errors import InstabilityError
 from .observables import energies
+from .output_paths import check_output_file
 from .recorder import Recorder
 from .state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
                     OVERFLOW_PAIRS, STAGES, timed_slots)
@@ -90,8 +91,8 @@ def run(system: System, until: Optional[float] = None,
     rec_every = max(1, int(round(sc.run.record_interval / dt)))
     if output is None:
         output = Path(tempfile.mkdtemp(prefix="brush-studio-")) / "result.h5"
-    output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
+    # a regular file only (never a device or a named pipe); its folders are created
+    output = check_output_file(output, "result file", parents=True)
     channels, static = run_channels(system)
     attrs = {"dt": dt, "dt_limited_by": system.dt_limited_by, "dt_stable": system.dt_stable,
              "brush_names": [b.name for b in system.brushes],

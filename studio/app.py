@@ -217,7 +217,6 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
     HTTP API (bearer token); the viser page itself has no authentication, so a studio bound
     to a non-loopback address is open to whoever reaches its port."""
     import engine
-    import viser
 
     try:
         scene = load_preset_or_file(preset or "demo")
@@ -237,7 +236,12 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         print(f"studio: cannot start the job pool in {data_dir}: {type(exc).__name__}: {exc}",
               file=sys.stderr)
         return EXIT_FAILED
-    server = viser.ViserServer(host=host, port=port, verbose=False)
+    from .serve_cli import allowed_hosts
+    from .server.ws_guard import guarded_viser_server
+
+    # the page and its WebSocket with the API's Host and Origin rules (DNS rebinding, pages
+    # of other sites)
+    server = guarded_viser_server(host, port, allowed_hosts(host), verbose=False)
     studio = Studio(server, jobs, scene, data_dir=Path(data_dir), per_client=True)
     api = None
     if api_port is None:
@@ -246,7 +250,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         try:
             from .server.studio_routes import make_api_app, serve_in_thread
 
-            app = make_api_app(jobs, studio, viser_port=port, token=token)
+            app = make_api_app(jobs, studio, viser_port=port, token=token, host=host)
             api, _ = serve_in_thread(app, host, api_port)
         except Exception as exc:
             print(f"studio: HTTP API not served ({type(exc).__name__}: {exc})")

@@ -58,11 +58,16 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Load, build and run a scene with a progress bar. "
                                    "Ctrl-C cancels cleanly (the file keeps the frames so far "
                                    "and has status cancelled).")
-    r.add_argument("scene", metavar="SCENE.json")
+    r.add_argument("scene", metavar="SCENE.json",
+                   help="a scene file, or a preset's name (demo, wedge_30, ...)")
     r.add_argument("-o", "--output", metavar="RESULT.h5", required=True,
                    help="result file to write")
     r.add_argument("--summary", metavar="SUMMARY.json",
                    help="also write the run summary as JSON (written for failed runs too)")
+    r.add_argument("--parents", action="store_true",
+                   help="create the missing folders of -o and --summary (without it a "
+                        "missing folder is refused; outputs are only written as regular "
+                        "files, never onto a device, a named pipe or a folder)")
     r.add_argument("--until", type=float, metavar="T",
                    help="simulated time to run to, s (default: the scene's run.duration)")
     r.add_argument("-q", "--quiet", action="store_true",
@@ -82,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_demo)
 
     v = sub.add_parser("validate", help="check a scene without running it")
-    v.add_argument("scene", metavar="SCENE.json")
+    v.add_argument("scene", metavar="SCENE.json",
+                   help="a scene file, or a preset's name (demo, wedge_30, ...)")
     _size_options(v)
     v.add_argument("--estimate-only", action="store_true",
                    help="print the cost estimate and stop (no build)")

@@ -13,11 +13,15 @@ from .run_console import output_problem, run_in_terminal, summary_table
 
 
 def _load_scene(path):
-    """The scene file ``path``, validated; None after printing every problem it has."""
+    """The scene file ``path`` or the preset of that name (``demo``, a name of
+    static_presets/, as ``study`` and ``studio`` take), validated; None after printing every
+    problem it has."""
     import engine
 
+    from .presets import load_preset_or_file
+
     try:
-        return engine.load_scene(path)
+        return load_preset_or_file(path)
     except engine.SceneError as exc:
         _print_scene_error(exc, f"invalid scene {path}")
         return None
@@ -42,6 +46,11 @@ def size_problem(scene, args, path) -> str:
     return ""
 
 
+# a scene this many steps long validates with a warning about its cost (1e7 steps of even a
+# tiny scene take hours)
+COSTLY_STEPS = 1e7
+
+
 def cmd_run(args) -> int:
     scene = _load_scene(args.scene)
     if scene is None:
@@ -54,10 +63,13 @@ def cmd_run(args) -> int:
         _err(f"--until = {args.until}: must be a finite time > 0 s")
         return EXIT_BAD_INPUT
     for path, what in ((args.output, "-o/--output"), (args.summary, "--summary")):
-        problem = output_problem(Path(path), what) if path else None
+        problem = output_problem(Path(path), what, parents=args.parents) if path else None
         if problem:
             _err(problem)
             return EXIT_BAD_INPUT
+    if Path(args.output).suffix.lower() not in (".h5", ".hdf5", ".hdf"):
+        _err(f"note: {args.output} is written as an HDF5 result file (give it the .h5 "
+             f"extension to say so)")
     code, _ = run_in_terminal(scene, Path(args.output),
                               Path(args.summary) if args.summary else None, args.until,
                               args.quiet)
@@ -89,12 +101,17 @@ def cmd_validate(args) -> int:
     nb = len(scene.brushes)
     nbody = len(scene.bodies)
     print(f"OK: {scene.name!r}: {nb} brush{'es' if nb != 1 else ''}, "
-          f"{system.n_bristles:,} bristles, {system.n_nodes:,} nodes, "
+          f"{system.n_bristles:,} bristle{'s' if system.n_bristles != 1 else ''}, "
+          f"{system.n_nodes:,} node{'s' if system.n_nodes != 1 else ''}, "
           f"{nbody} bod{'ies' if nbody != 1 else 'y'}; dt {system.dt:.3g} s limited by "
           f"{system.dt_limited_by}; {scene.run.duration:g} s to simulate")
     print(f"estimate: {cost.summary()}")
     for w in system.warnings:
         print(f"warning: {w}")
+    if cost.steps >= COSTLY_STEPS:
+        print(f"warning: {cost.steps:.3g} steps to simulate {scene.run.duration:g} s at dt "
+              f"{system.dt:.3g} s: this run would take very long (a stiff material or fine "
+              f"bristles make dt small; check the moduli, or shorten run.duration)")
     return EXIT_OK
 
 

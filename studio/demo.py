@@ -140,8 +140,13 @@ def cmd_demo(args) -> int:
     except engine.SceneError as exc:  # a broken package, not a user error
         _print_scene_error(exc, "the embedded demo scene is invalid")
         return EXIT_FAILED
-    try:
-        out.mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import OutputPathError, check_output_dir
+
+    try:  # a folder (created if missing, its parent must exist), never a file or a device
+        check_output_dir(out, "-o/--output")
+    except OutputPathError as exc:
+        _err(str(exc))
+        return EXIT_BAD_INPUT
     except OSError as exc:
         _err(f"-o/--output {out}: cannot be made a folder ({exc.strerror or exc})")
         return EXIT_BAD_INPUT

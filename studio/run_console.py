@@ -22,7 +22,9 @@ from .fmt import fmt_rate, fmt_seconds
 def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import refuse_special
+
+    refuse_special(path, "--summary")  # checked before the run; again right before writing
     path.write_text(json_text(data, indent=2) + "\n")
 
 
@@ -53,7 +55,8 @@ def summary_table(summary: dict, result_path=None) -> str:
             wall += (f"  (of which {fmt_seconds(compiled)} compiling the engine: not in the "
                      f"speed nor the stages)")
         rows.append(("wall time", wall))
-    if "node_steps_per_s" in summary:
+    if "node_steps_per_s" in summary and summary.get("n_nodes", 1) and \
+            summary["node_steps_per_s"]:
         speed = f"{fmt_rate(summary['node_steps_per_s'])} node-steps/s"
         if "steps_per_s" in summary:
             speed += f" ({fmt_rate(summary['steps_per_s'])} steps/s"
@@ -61,6 +64,8 @@ def summary_table(summary: dict, result_path=None) -> str:
                 speed += f", {summary['n_nodes']:,} nodes"
             speed += ")"
         rows.append(("speed", speed))
+    elif "steps_per_s" in summary:  # no bristles (bodies only): no node-steps to count
+        rows.append(("speed", f"{fmt_rate(summary['steps_per_s'])} steps/s (no bristles)"))
     stages = summary.get("stages") or {}
     if stages:
         total = sum(v for v in stages.values() if isinstance(v, (int, float))) or 1.0
@@ -86,9 +91,13 @@ class ProgressBar:
     """A tqdm bar over simulated time, with steps/s and the engine's ETA as postfix."""
 
     # until the first progress report the engine may be compiling (a cold numba cache:
-    # minutes): the bar says so and shows no ETA; the rate and ETA then come from the steps
-    # between reports, so that the compile does not count in them (it gave "ETA 825 min")
-    STARTING = "compiling the engine (first run only) / starting"
+    # minutes): the bar says so only when numba reports a compile (a warm cache loads in
+    # seconds and says "starting"), shows no ETA, and its elapsed time keeps counting (a
+    # ticker thread redraws it: without reports it sat at [00:00]); the rate and ETA then
+    # come from the steps between reports, so that the compile does not count in them
+    STARTING = "starting"
+    COMPILING = "compiling the engine (first run only)"
+    TICK_S = 1.0
 
     def __init__(self, until: float, start: float, disable: bool):
         from tqdm import tqdm
@@ -103,12 +112,44 @@ class ProgressBar:
                         desc=self.STARTING)
         self.desc, self.postfix = self.STARTING, ""  # what the bar shows (also when off)
         self.bar.refresh()
+        self._done = threading.Event()  # the first report came, or the bar was closed
+        self._listener = _CompileSeen(self._compiling)
+        from numba.core import event
+
+        event.register("numba:compile", self._listener)
+        self._ticker = None
+        if not disable:
+            self._ticker = threading.Thread(target=self._tick, name="progress-ticker",
+                                            daemon=True)
+            self._ticker.start()
+
+    def _compiling(self) -> None:
+        if not self._done.is_set() and self.desc != self.COMPILING:
+            self.desc = self.COMPILING
+            self.bar.set_description_str(self.desc, refresh=False)
+
+    def _tick(self) -> None:
+        while not self._done.wait(self.TICK_S):
+            self.bar.refresh()  # the elapsed time moves while nothing is reported
+
+    def _stop_ticking(self) -> None:
+        if not self._done.is_set():
+            self._done.set()
+            from numba.core import event
+
+            try:
+                event.unregister("numba:compile", self._listener)
+            except (ValueError, KeyError):
+                pass
+            if self._ticker is not None and self._ticker is not threading.current_thread():
+                self._ticker.join(2.0)
 
     def __call__(self, p) -> None:
         import time as _time
 
         now = _time.monotonic()
         if self.last is None:
+            self._stop_ticking()
             self.desc = "simulating"
             self.bar.set_description_str(self.desc, refresh=False)
         elif now > self.last[0] and p.steps > self.last[1]:
@@ -125,10 +166,27 @@ class ProgressBar:
         self.bar.refresh()
 
     def close(self, completed: bool = False) -> None:
+        self._stop_ticking()
         if completed:  # the last step lands within rounding of the end time: show 100 %
             self.bar.n = self.bar.total
             self.bar.refresh()
         self.bar.close()
+
+
+class _CompileSeen:
+    """A numba event listener that calls ``seen()`` when a compile starts."""
+
+    def __new__(cls, seen):
+        from numba.core import event
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                seen()
+
+            def on_end(self, ev):
+                pass
+
+        return Listener()
 
 
 class CtrlC:
@@ -213,26 +271,30 @@ def run_in_terminal(scene, output: Path, summary_path: Optional[Path],
     return code, summary
 
 
-def output_problem(path: Path, what: str) -> Optional[str]:
+def output_problem(path: Path, what: str, parents: bool = False) -> Optional[str]:
     """Why ``path`` cannot be written as the file ``what`` (one line), or None: checked
-    before a run starts by creating its folder and opening the file for writing (a file
-    that did not exist is removed again), so that a bad ``-o`` or ``--summary`` does not
-    cost a whole run."""
-    import errno
+    before a run starts, so that a bad ``-o`` or ``--summary`` does not cost a whole run.
+    Only regular files are written (a device, a named pipe, a socket or a folder is refused
+    without being opened); a missing folder is refused unless ``parents`` (``--parents``),
+    which creates it. See :mod:`engine.output_paths`."""
+    from engine.output_paths import output_file_problem
 
+    import os
+
+    problem = output_file_problem(path, what, parents=parents)
+    if problem is not None:
+        return problem
     path = Path(path)
-    if path.is_dir():
-        return f"{what} {path}: is a directory (give a file name)"
-    existed = path.exists()
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "ab"):
-            pass
+        if parents:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        # a regular file or nothing (checked above): opening it cannot block; a file made
+        # by the probe is removed again
+        existed = path.exists()
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK, 0o666)
+        os.close(fd)
     except OSError as exc:
-        reason = exc.strerror or str(exc)
-        if exc.errno in (errno.ENOTDIR, errno.EEXIST):
-            reason = "a part of the path is a file, not a folder"
-        return f"{what} {path}: cannot be written ({reason})"
+        return f"{what} {path}: cannot be written ({exc.strerror or exc})"
     if not existed:
         try:
             path.unlink()

@@ -243,6 +243,24 @@ class JobManager(WorkerMonitor):
     def free_bytes(self) -> Optional[int]:
         return self._writes.free_bytes()
 
+    def _storage_recovered(self) -> bool:
+        """Whether storage works again: enough free space and a small file can be written
+        in the data folder."""
+        free = self.free_bytes()
+        if free is not None and free < self.min_free_bytes:
+            return False
+        probe = self.data_dir / f".health-probe-{os.getpid()}"
+        try:
+            probe.write_bytes(b"ok")
+            probe.unlink()
+            return True
+        except OSError:
+            try:
+                probe.unlink(missing_ok=True)
+            except OSError:
+                pass
+            return False
+
     def health(self) -> dict:
         """``{"status": "ok" | "degraded", "problems": [...]}``: degraded while workers are
         missing, the monitor thread is down, storage failed last time it was written, or the
@@ -253,6 +271,10 @@ class JobManager(WorkerMonitor):
             pending = sorted(self._writes.pending)
             storage = self._writes.problem
             monitor = self._monitor_problem
+        if storage and not pending and self._storage_recovered():
+            # (a purge or a cleanup freed space: healthy now, not at the next write)
+            self._writes.ok()
+            storage = None
         if not self._monitor.is_alive() and not self._closing:
             problems.append("the job monitor thread has stopped: no job will start")
         elif monitor:
@@ -425,7 +447,9 @@ class JobManager(WorkerMonitor):
     # ------------------------------------------------------------------ meshes
     def add_mesh(self, data: bytes, filename: str) -> dict:
         """Store an uploaded STL/OBJ/PLY mesh (:meth:`MeshStore.add_mesh`); over the storage
-        quota: :class:`StorageError`."""
+        quota or with less free space than ``min_free_bytes`` (``--min-free-mb``), as for
+        a submit: :class:`StorageError`."""
+        self.check_free_space()
         self.quota.admit(len(data), "the mesh")
         return self._meshes.add_mesh(data, filename)
 

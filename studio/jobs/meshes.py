@@ -30,26 +30,6 @@ class MeshError(ValueError):
         self.status = status
 
 
-def quick_triangle_count(data: bytes, fmt: str):
-    """Triangles of a mesh file counted without parsing it (C-speed byte searches, about
-    10 ms for 40 MB), so that an oversized upload is refused before trimesh spends seconds
-    and gigabytes on it; None when the format gives no cheap count. At least the number
-    of triangles the file holds (a polygon face counts as one: its fan is checked after
-    parsing)."""
-    import re
-
-    if fmt == "stl":
-        if not data[:512].lstrip().lower().startswith(b"solid") and len(data) >= 84:
-            return int.from_bytes(data[80:84], "little")  # binary STL: its header says
-        return data.count(b"facet")
-    if fmt == "obj":
-        return data.count(b"\nf ") + data.count(b"\nf\t") + int(data.startswith(b"f "))
-    if fmt == "ply":
-        m = re.search(rb"element\s+face\s+(\d+)", data[:4096])
-        return int(m.group(1)) if m else None
-    return None
-
-
 class MeshStore:
     """The uploaded meshes of ``meshes_dir``, listed in ``store``'s database."""
 
@@ -69,11 +49,14 @@ class MeshStore:
                             f"one of {', '.join('.' + f for f in MESH_FORMATS)}")
         if not data:
             raise MeshError("the uploaded file is empty")
-        counted = quick_triangle_count(data, fmt)
-        if counted is not None and counted > self.max_triangles:
-            raise MeshError(f"has {counted} triangles (counted before parsing); at most "
-                            f"{self.max_triangles} are allowed (decimate the mesh)",
-                            status=413)
+        from engine.mesh_limits import mesh_bytes_problem
+
+        # counts read from the bytes before trimesh parses anything: face arity, vertices,
+        # any-case STL facets, the PLY header (a parse bomb costs seconds and gigabytes)
+        problem = mesh_bytes_problem(data, fmt, self.max_triangles)
+        if problem:
+            raise MeshError(problem, status=413 if ("at most" in problem or "longer" in problem)
+                            else 422)
         import numpy as np
         import trimesh
 

@@ -23,7 +23,7 @@ from typing import Optional
 
 from ..studies.registry import make_options, options_to_dict
 from .store import FINAL_STATUSES, StorageError, storage_reason
-from .worker import WorkerHandle, describe_exit, finalize_killed_result
+from .worker import WorkerHandle, describe_exit, disk_full_reason, finalize_killed_result
 
 # a killed worker's result file up to this size is finalized before its job is reported
 FINALIZE_INLINE_BYTES = 64 * 1024 * 1024
@@ -232,6 +232,9 @@ class WorkerMonitor:
         if job_id is not None:
             cancel_requested = w.cancel_at is not None
             reason = describe_exit(code)
+            full = disk_full_reason(self.runs_dir)  # a crash on a full disk: say so
+            if full:
+                reason += f"; {full}"
             if w.over_limit:
                 status, error = "failed", w.over_limit
             elif cancel_requested:

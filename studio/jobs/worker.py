@@ -20,6 +20,30 @@ from typing import Optional
 from .store import jsonable
 
 STUDY_LOG = "log.txt"  # the study's printed output, in its output folder
+# a run stops, failed with "No space left on device", when its result's disk has less free:
+# HDF5 writing its file in SWMR mode onto a full disk crashed the worker (SIGSEGV) instead
+# of raising, so the run must stop before the disk is full (1 MiB: a recorded chunk)
+RUN_FREE_FLOOR_BYTES = 2**20
+DISK_FULL = "No space left on device"
+
+
+def free_bytes(path) -> Optional[int]:
+    """Free bytes on the file system holding ``path`` (None if it cannot be told)."""
+    import shutil
+
+    try:
+        return shutil.disk_usage(path).free
+    except OSError:
+        return None
+
+
+def disk_full_reason(path) -> Optional[str]:
+    """The disk-full explanation when the file system of ``path`` is (nearly) full."""
+    free = free_bytes(path)
+    if free is not None and free < RUN_FREE_FLOOR_BYTES:
+        return (f"{DISK_FULL}: {free / 2**20:.1f} MiB free on the disk of {path} (a run "
+                f"stops below {RUN_FREE_FLOOR_BYTES / 2**20:.0f} MiB)")
+    return None
 
 
 def cpu_count() -> int:
@@ -101,8 +125,21 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
 def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) -> None:
     import engine
 
+    folder = Path(h5_path).parent
+    disk_full: list[str] = []  # why the run was stopped for a full disk
+    checked = [0.0]
+
     def cancelled() -> bool:
-        return cancel_seq.value == seq or os.getppid() != parent_pid
+        if cancel_seq.value == seq or os.getppid() != parent_pid:
+            return True
+        now = time.monotonic()
+        if now - checked[0] >= 0.25:  # (statvfs: microseconds; four times a second)
+            checked[0] = now
+            reason = disk_full_reason(folder)
+            if reason:
+                disk_full.append(reason)
+                return True
+        return False
 
     status, summary, error = "failed", {}, None
     last = [0.0]
@@ -143,6 +180,10 @@ def _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path) 
                  f"({_os_reason(exc)}); the frames written before are kept")
     except Exception as exc:  # report any bug with its traceback; the worker goes on
         error = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
+    if disk_full:  # stopped by the disk, not by a cancel: a failure with the real reason
+        status = "failed"
+        error = (f"storage error: {disk_full[0]}; the run was stopped and the result file "
+                 f"{h5_path} keeps the frames written before")
     conn.send(("done", job_id, {"status": status, "summary": jsonable(summary),
                                 "error": error, "finished": time.time()}))
 

@@ -68,6 +68,7 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                     "download its HDF5 result or plot its channels. Scenes are the JSON of "
                     "docs/scene.md; result files are described in docs/results.md.")
     app.state.jobs = jobs
+    app.state.token = token  # (``/api/health`` shows its details only with it)
     bearer = HTTPBearer(auto_error=False)
 
     def auth(credentials: Optional[HTTPAuthorizationCredentials] = Depends(bearer)) -> None:
@@ -106,6 +107,18 @@ def create_app(jobs: JobManager, *, token: Optional[str] = None,
                               for r in app.router.routes)]
             exc.headers = {**(exc.headers or {}), "Allow": ", ".join(methods)}
         return await http_exception_handler(request, exc)
+
+    from fastapi.exceptions import RequestValidationError
+
+    from .common import short_value
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(request, exc: RequestValidationError):
+        # FastAPI's own 422, with each echoed input shortened (it echoed a 6 MB body twice)
+        errors = [{**e, "input": short_value(e.get("input"))} if "input" in e else e
+                  for e in exc.errors()]
+        errors = [{k: (str(v) if k == "ctx" else v) for k, v in e.items()} for e in errors]
+        return JSONResponse(status_code=422, content={"detail": errors})
 
     from ..jobs import LimitError
 

@@ -5,10 +5,33 @@ import json
 import math
 from typing import Optional
 
+MAX_ECHO_CHARS = 200  # a bad value is echoed in a 422 up to this length
+
+
+def short_value(value):
+    """``value`` as it is echoed in an error answer: itself when its JSON is short, else
+    the start of its JSON text and its length (a 6 MB list was echoed twice: a 15 MB
+    422)."""
+    try:
+        text = json.dumps(value, default=str)
+    except (TypeError, ValueError):
+        text = repr(value)
+    if len(text) <= MAX_ECHO_CHARS:
+        return value
+    return f"{text[:MAX_ECHO_CHARS]}... ({len(text)} characters)"
+
+
+def short_text(text: str, limit: int = 4 * MAX_ECHO_CHARS) -> str:
+    """A message cut to ``limit`` characters (saying how long it was)."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 def problem_detail(problems: list[dict]) -> list[dict]:
     """SceneError problems in FastAPI's 422 shape (``loc``, ``msg``, ``type``) plus the
-    engine's own ``field``, ``value``, ``allowed``."""
+    engine's own ``field``, ``value`` (shortened: :func:`short_value`), ``allowed``."""
     out = []
+    problems = [{**p, "value": short_value(p["value"])} for p in problems]
     for p in problems:
         loc = ["body"] + [int(x) if x.isdigit() else x for x in str(p["field"]).split(".")]
         out.append({"loc": loc, "msg": p["allowed"], "type": "scene_error",
@@ -106,7 +129,7 @@ def scene_error(exc):
     """An engine SceneError as a 422 answer naming every bad field."""
     from fastapi.responses import JSONResponse
 
-    problems = exc.as_dicts()
+    problems = [{**p, "value": short_value(p["value"])} for p in exc.as_dicts()]
     return JSONResponse(status_code=422, content={
         "detail": problem_detail(problems),
         "message": f"invalid scene: {len(problems)} problem(s): " +
@@ -123,6 +146,46 @@ def host_name(value: str) -> str:
     return value.rsplit(":", 1)[0] if value.count(":") == 1 else value
 
 
+LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
+
+
+def _split_authority(value: str) -> tuple[str, str]:
+    """(host, port) of ``host[:port]`` (IPv6 in brackets), lower case; port '' if none."""
+    value = value.strip().lower()
+    if value.startswith("["):
+        end = value.find("]")
+        host = value[1:end] if end >= 0 else value[1:]
+        rest = value[end + 1:] if end >= 0 else ""
+        return host, rest[1:] if rest.startswith(":") else ""
+    if value.count(":") == 1:
+        host, port = value.split(":")
+        return host, port
+    return value, ""
+
+
+def host_allowed(host: str, allowed_hosts) -> bool:
+    """Whether a request's ``Host`` header names this server (``allowed_hosts``: names
+    without ports, as :func:`host_name` gives them; None: anything)."""
+    return allowed_hosts is None or host_name(host) in allowed_hosts
+
+
+def same_origin(origin: str, host: str, cors_origins=()) -> bool:
+    """Whether a browser's ``Origin`` is this server's own origin (its authority equal to
+    ``Host``, or both loopback names, ``localhost``/``127.0.0.1``/``[::1]`` in any
+    combination, with the same port) or one of ``cors_origins`` (lower case, no trailing
+    slash). The one rule of the headless service, the studio's API and its WebSocket."""
+    o = origin.strip().rstrip("/").lower()
+    if o in cors_origins:
+        return True
+    if "://" not in o:
+        return False  # "null" (a sandboxed page, a file://) and the like
+    authority = o.split("://", 1)[1]
+    if authority == host.strip().lower():
+        return True
+    (o_host, o_port), (h_host, h_port) = _split_authority(authority), _split_authority(host)
+    return o_host in LOOPBACK_NAMES and h_host in LOOPBACK_NAMES and o_port == h_port
+
+
 class RequestGuard:
     """Pure ASGI middleware against cross-site requests from a browser page (CSRF) and DNS
     rebinding, in front of every route:
@@ -130,8 +193,9 @@ class RequestGuard:
     * ``Host`` must name this server (``allowed_hosts``; ``None``: not checked), so that a
       page on a rebound name (``http://evil.example:8000``) cannot read the API: 421;
     * a request that changes something (POST, PUT, PATCH, DELETE) sent with an ``Origin``
-      must come from this server's own origin (scheme-less ``host:port`` equal to ``Host``)
-      or one of ``cors_origins``: 403 otherwise (a page elsewhere cannot queue jobs);
+      must come from this server's own origin (:func:`same_origin`: ``host:port`` equal to
+      ``Host``, loopback names in any combination) or one of ``cors_origins``: 403
+      otherwise (a page elsewhere cannot queue jobs);
     * the JSON endpoints (``json_paths``) take ``application/json`` bodies only: 415 for
       ``text/plain`` and the form types a page can send without a preflight.
     """
@@ -154,17 +218,14 @@ class RequestGuard:
         headers = {k.decode("latin-1").lower(): v.decode("latin-1")
                    for k, v in scope.get("headers", ())}
         host = headers.get("host", "")
-        if self.allowed_hosts is not None and host_name(host) not in self.allowed_hosts:
+        if not host_allowed(host, self.allowed_hosts):
             return await BodyLimit._reply(
                 send, 421, f"Host {host!r} is not a name of this server (allowed: "
                            f"{sorted(self.allowed_hosts)}; add one with --allow-host)")
         method = scope["method"]
         origin = headers.get("origin")
         if method in self.UNSAFE and origin is not None:
-            o = origin.rstrip("/").lower()
-            authority = o.split("://", 1)[1] if "://" in o else None
-            if o not in self.cors_origins and (authority is None
-                                               or authority != host.strip().lower()):
+            if not same_origin(origin, host, self.cors_origins):
                 return await BodyLimit._reply(
                     send, 403, f"cross-site request refused: Origin {origin!r} is not this "
                                f"server's origin nor an allowed one (--cors ORIGIN)")

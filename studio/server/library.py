@@ -12,7 +12,7 @@ from .models import Health, MeshInfo, PresetInfo, error_responses
 def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
     """Presets and meshes (``guarded``), and the open health check."""
     import anyio
-    from fastapi import APIRouter, File, HTTPException, UploadFile
+    from fastapi import APIRouter, File, HTTPException, Request, UploadFile
     from fastapi.responses import JSONResponse
 
     import engine
@@ -77,10 +77,19 @@ def library_router(jobs: JobManager, guarded: list, *, max_upload_bytes: int):
     # ------------------------------------------------------------------ health
     @router.get("/api/health", tags=["service"], summary="Liveness and load",
                 response_model=Health, responses=error_responses())
-    def health():
-        """Open without a token (for health checks): version, workers, jobs per status."""
-        alive = jobs.workers_info()
+    def health(request: Request):
+        """Open without a token (for health checks): status and version; with the token (or
+        on a server without one) also the problems, disk figures, workers and jobs."""
         state = jobs.health()
+        token = getattr(request.app.state, "token", None)
+        if token is not None:
+            import secrets
+
+            scheme, _, given = request.headers.get("authorization", "").partition(" ")
+            if scheme.lower() != "bearer" or not secrets.compare_digest(
+                    given.strip().encode(), token.encode()):
+                return {"status": state["status"], "version": __version__}
+        alive = jobs.workers_info()
         return {"status": state["status"], "problems": state["problems"],
                 "free_bytes": state["free_bytes"], "used_bytes": state["used_bytes"],
                 "quota_bytes": state["quota_bytes"], "version": __version__, "workers": jobs.n_workers,

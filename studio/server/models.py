@@ -153,17 +153,19 @@ class WorkerProcess(BaseModel):
 
 
 class Health(BaseModel):
-    """``GET /api/health``."""
+    """``GET /api/health``. Open without a token; when the server has one, a request
+    without it gets ``status`` and ``version`` only (no worker PIDs, disk figures or
+    problems)."""
 
     status: str = Field(description="ok, or degraded (see problems)")
-    problems: list[str]
-    free_bytes: Optional[int] = Field(description="free space in the data folder")
+    version: str
+    problems: Optional[list[str]] = None
+    free_bytes: Optional[int] = Field(None, description="free space in the data folder")
     used_bytes: Optional[int] = Field(None, description="bytes of job files in the data "
                                                         "folder (with --max-storage-gb)")
     quota_bytes: Optional[int] = Field(None, description="--max-storage-gb, in bytes")
-    version: str
-    workers: int
-    threads_per_worker: int
-    workers_alive: int
-    worker_processes: list[WorkerProcess]
-    jobs: dict[str, int] = Field(description="number of jobs per status")
+    workers: Optional[int] = None
+    threads_per_worker: Optional[int] = None
+    workers_alive: Optional[int] = None
+    worker_processes: Optional[list[WorkerProcess]] = None
+    jobs: Optional[dict[str, int]] = Field(None, description="number of jobs per status")

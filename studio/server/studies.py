@@ -35,11 +35,15 @@ def studies_router(jobs: JobManager, guarded: list):
 
     def option_error(exc: StudyOptionError) -> JSONResponse:
         top = ("study", "options", "name", "(body)")
-        detail = [{"loc": ["body", o] if o in top else ["body", "options", o], "msg": m,
-                   "type": "study_option_error", "option": o, "value": jsonable(v)}
+        from .common import short_text, short_value
+
+        # values and messages shortened: a huge value was echoed in full, twice
+        detail = [{"loc": ["body", o] if o in top else ["body", "options", o],
+                   "msg": short_text(m), "type": "study_option_error", "option": o,
+                   "value": short_value(jsonable(v))}
                   for o, v, m in exc.problems]
         return JSONResponse(status_code=422, content={"detail": detail,
-                                                      "message": str(exc)})
+                                                      "message": short_text(str(exc), 2000)})
 
     @router.post("/api/studies", status_code=201, dependencies=guarded, tags=["studies"],
               summary="Submit a study", response_model=JobInfo,

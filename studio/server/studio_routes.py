@@ -18,9 +18,12 @@ def studio_router(studio, viser_port: int):
 
     router = APIRouter(tags=["studio"])
 
-    def open_studio(request_host: str, preset: Optional[str], design: Optional[str] = None):
+    def open_studio(request_host: str, preset: Optional[str], design: Optional[str] = None,
+                    change: bool = False):
         """Redirect to the studio page, whose websocket URL names the design the new tab's
-        own session opens on (nobody else's design changes)."""
+        own session opens on (nobody else's design changes). A studio with one shared
+        design changes it only for ``change`` (a POST, which the Origin check guards: a
+        GET can be sent by an ``<img>`` on any page)."""
         host = request_host.split(":")[0] if request_host else "127.0.0.1"
         page = f"http://{host}:{viser_port}/"
         if design:
@@ -39,8 +42,12 @@ def studio_router(studio, viser_port: int):
             except engine.SceneError as exc:
                 raise HTTPException(422, detail=[str(p) for p in exc.problems])
             if not getattr(studio, "per_client", False):
+                if not change:
+                    raise HTTPException(405, detail="this studio has one design shared by "
+                                                    "every tab: POST /studio?preset=NAME "
+                                                    "changes it", headers={"Allow": "POST"})
                 studio.load_preset(preset)  # (one design shared by every tab)
-                return RedirectResponse(page, status_code=307)
+                return RedirectResponse(page, status_code=303)
             return RedirectResponse(f"{page}?websocket=ws://{host}:{viser_port}/preset/{preset}",
                                     status_code=307)
         return RedirectResponse(page, status_code=307)
@@ -51,6 +58,13 @@ def studio_router(studio, viser_port: int):
         """Open the studio in a new session on ``preset`` (a name from GET
         /studio/presets) or on a shared ``design`` id, if given."""
         return open_studio(host or "", preset, design)
+
+    @router.post("/studio")
+    def studio_change(preset: Optional[str] = None, design: Optional[str] = None,
+                      host: Optional[str] = Header(None)):
+        """As GET, and in a studio with one shared design, load ``preset`` into it (a POST:
+        refused from pages of other origins by the request guard)."""
+        return open_studio(host or "", preset, design, change=True)
 
     @router.get("/studio/presets")
     def studio_presets():
@@ -64,11 +78,15 @@ def studio_router(studio, viser_port: int):
     return router
 
 
-def make_api_app(jobs, studio, viser_port: int, token: Optional[str] = None):
-    """The HTTP API app (:func:`studio.server.create_app`) plus the studio's own routes."""
+def make_api_app(jobs, studio, viser_port: int, token: Optional[str] = None,
+                 host: str = "127.0.0.1", extra_hosts=()):
+    """The HTTP API app (:func:`studio.server.create_app`) plus the studio's own routes,
+    with the headless service's Host and Origin rules for the bound address ``host``
+    (``extra_hosts``: more names its Host may give)."""
+    from ..serve_cli import allowed_hosts
     from . import create_app
 
-    app = create_app(jobs, token=token)
+    app = create_app(jobs, token=token, allowed_hosts=allowed_hosts(host, extra_hosts))
     app.include_router(studio_router(studio, viser_port))
     return app
 

@@ -251,7 +251,7 @@ def add_parser(study_subparsers) -> None:
     from .study_command import set_command
 
     p = study_subparsers.add_parser(
-        "detumble", help="a chaser's brush detumbles a spinning target in orbit (issue 15)",
+        "detumble", help="a chaser's brush detumbles a spinning target in orbit",
         description="A chaser holds its brush against a spinning target (a detumble preset) "
                     "until the target's spin is gone: |omega|(t), angular momentum, time to "
                     "detumble, peak loads on target and chaser, the chaser's Delta-v and "

@@ -344,8 +344,10 @@ def write_outputs(fit: DissipationFit, out_dir: Path, source: str = "") -> dict[
     """Write fit.json, fit.csv, fit.h5 and fit.png into ``out_dir``; return the paths."""
     import h5py
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import check_output_dir
+
+    # a folder, never a file, a device or a named pipe (created if missing)
+    out_dir = check_output_dir(out_dir, "output folder", parents=True)
     paths = {k: out_dir / f"fit.{k}" for k in ("json", "csv", "h5", "png")}
     info = dict(fit.to_dict(), source=source,
                 model="d(omega)/dt = -k1 omega - k2 sign(omega) (seed eq. 4.6)",

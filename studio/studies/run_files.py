@@ -49,6 +49,10 @@ def write_json_atomic(path: Path, data: Any) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    from engine.output_paths import refuse_special
+
+    refuse_special(path)  # renamed onto: never a device, a named pipe or a folder
+    refuse_special(tmp)   # opened: a named pipe would hang
     tmp.write_text(json_text(data, indent=1) + "\n")
     os.replace(tmp, path)
 

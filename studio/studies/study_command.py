@@ -103,7 +103,13 @@ def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2, []
-    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import OutputPathError, check_output_dir
+
+    try:  # a folder (created if missing, its parent must exist), never a file or a device
+        check_output_dir(out_dir, "-o/--output")
+    except OutputPathError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2, []
     try:
         specs = make_specs()
         for s in specs:  # every scene valid before anything runs

@@ -60,6 +60,9 @@ RUN_LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", 
 FAST = os.environ.get("BRUSH_DOCS_FAST", "1") != "0"
 # one block may run a small study or a short simulation; minutes mean a size was not reduced
 BLOCK_TIMEOUT_S = float(os.environ.get("BRUSH_DOCS_TIMEOUT", "300"))
+# the engine's first compile (a cold numba cache) is done once, before any block, with its
+# own limit: about 100 CPU-s, 5 min of wall time on a loaded 2-core machine; 30 min is a hang
+WARM_TIMEOUT_S = float(os.environ.get("BRUSH_DOCS_WARM_TIMEOUT", "1800"))
 
 # the README's test command, run by this test with BRUSH_DOCS_FAST=0, would run this test
 # again, and so on: inside a documented command this module does nothing
@@ -169,16 +172,43 @@ def _apply_replacements(b: Block) -> str:
     return code
 
 
+def make_shim(d: Path, executable: str = sys.executable) -> Path:
+    """``d`` with a ``brush-studio`` that runs this checkout's CLI and a ``python``, both
+    running ``executable`` itself. Scripts, not links: Python finds its virtual environment
+    from the ``pyvenv.cfg`` beside the path it was started by, so a link to a venv's
+    interpreter from elsewhere starts the base interpreter without the venv's packages."""
+    d.mkdir(parents=True, exist_ok=True)
+    for name, args in (("brush-studio", " -m studio.cli"), ("python", "")):
+        exe = d / name
+        exe.write_text(f"#!/bin/sh\nexec {shlex.quote(executable)}{args} \"$@\"\n")
+        exe.chmod(0o755)
+    return d
+
+
 @pytest.fixture(scope="module")
 def shim_dir(tmp_path_factory) -> Path:
-    """A folder with a ``brush-studio`` that runs this checkout's CLI."""
-    d = tmp_path_factory.mktemp("shim")
-    exe = d / "brush-studio"
-    exe.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -m studio.cli \"$@\"\n")
-    exe.chmod(0o755)
-    py = d / "python"
-    py.symlink_to(sys.executable)
-    return d
+    """A folder with a ``brush-studio`` that runs this checkout's CLI, and ``python``."""
+    return make_shim(tmp_path_factory.mktemp("shim"))
+
+
+@pytest.fixture(scope="module")
+def warm_engine(tmp_path_factory, shim_dir) -> None:
+    """Compile the engine once, before the first block that runs it, with its own generous
+    limit (``WARM_TIMEOUT_S``): a short run of the demo scene fills numba's cache, so that
+    on a cold cache the first documented command does not spend its per-block limit
+    compiling. Warm, this takes seconds."""
+    d = tmp_path_factory.mktemp("warm")
+    env = _env(shim_dir)
+    steps = [[sys.executable, "-m", "studio.cli", "demo", "--scene-only", "-o", str(d)],
+             [sys.executable, "-m", "studio.cli", "run", str(d / "scene.json"), "-o",
+              str(d / "warm.h5"), "--until", "0.002", "-q"]]
+    for argv in steps:
+        try:
+            proc = subprocess.run(argv, cwd=d, env=env, capture_output=True, text=True,
+                                  timeout=WARM_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"compiling the engine ran past {WARM_TIMEOUT_S:.0f} s: {argv}")
+        assert proc.returncode == 0, f"warm-up {argv} failed:\n{proc.stdout}\n{proc.stderr}"
 
 
 def _env(shim: Path) -> dict:
@@ -271,7 +301,7 @@ SESSIONS = _sessions()
 
 
 @pytest.mark.parametrize("blocks", [s for _, s in SESSIONS], ids=[k for k, _ in SESSIONS])
-def test_documented_block_runs(blocks, tmp_path, shim_dir, request):
+def test_documented_block_runs(blocks, tmp_path, shim_dir, warm_engine, request):
     env = _env(shim_dir)
     (tmp_path / "static_presets").symlink_to(ROOT / "static_presets")
     url = (request.getfixturevalue("docs_server").url
@@ -315,3 +345,53 @@ def test_markers_are_parsed(tmp_path):
     (b,) = parse_blocks(md)
     assert b.marker("not-run") == ["a server"] and b.marker("session") == ["s"]
     assert b.output is not None and b.output.code == "hi\n"
+
+
+# ----------------------------------------------------------------- the interpreter used
+def test_blocks_run_with_the_interpreter_of_a_virtual_environment(tmp_path):
+    """The shim's ``python`` sees a venv's own packages (issue 28, item 5). Bug caught: the
+    shim linked ``python`` to the venv's interpreter; started through the link, Python found
+    no ``pyvenv.cfg`` and ran as the base interpreter (``No module named 'h5py'``)."""
+    import venv
+
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(system_site_packages=True, with_pip=False, symlinks=True).create(env_dir)
+    venv_python = env_dir / "bin" / "python"
+    site = subprocess.run([str(venv_python), "-c", "import site; print(site.getsitepackages()[0])"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (Path(site) / "only_in_this_venv.py").write_text("WHERE = 'venv'\n")
+    shim = make_shim(tmp_path / "shim", str(venv_python))
+    proc = subprocess.run(["python", "-c", "import only_in_this_venv, sys; print(sys.prefix)"],
+                          env={**os.environ, "PATH": f"{shim}{os.pathsep}{os.environ['PATH']}"},
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert Path(proc.stdout.strip()) == env_dir
+
+
+@pytest.mark.slow
+def test_the_readme_commands_pass_in_a_fresh_venv(tmp_path):
+    """The README's first screen (the demo and the test command's collection) in a fresh
+    virtual environment (``--system-site-packages``: the dependencies come from this
+    machine, nothing is downloaded; the checkout on its path as an editable install puts
+    it), run by that venv's own interpreter: the docs test of README.md inside it must pass
+    (issue 28, item 5: it failed with "No module named 'h5py'" through the linked python)."""
+    import venv
+
+    env_dir = tmp_path / "venv"
+    # (no pip of its own: nothing is installed into it)
+    venv.EnvBuilder(system_site_packages=True, with_pip=False, symlinks=True).create(env_dir)
+    py = str(env_dir / "bin" / "python")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "BRUSH_DOCS_NESTED")}
+    env["PATH"] = f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}"
+    env["VIRTUAL_ENV"] = str(env_dir)
+    # the checkout on the venv's path, as `pip install -e .` puts it (building the editable
+    # wheel needs setuptools >= 68 from the package index: this test downloads nothing)
+    site = subprocess.run([py, "-c", "import site; print(site.getsitepackages()[0])"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (Path(site) / "brush_studio_checkout.pth").write_text(str(ROOT) + "\n")
+    # the README's blocks only (not this test again: -k is case-blind, "readme" is in its name)
+    proc = subprocess.run([py, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "not slow",
+                           str(Path(__file__)), "-k", "README and not venv"], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=3600)
+    assert proc.returncode == 0, proc.stdout[-6000:] + proc.stderr[-3000:]
+    assert " passed" in proc.stdout and "failed" not in proc.stdout

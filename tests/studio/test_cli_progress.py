@@ -14,10 +14,41 @@ def _report(steps, total=10_000):
                                  steps_per_s=1.0, eta_s=49_500.0)
 
 
+def _numba_compiles():
+    from numba.core import event
+
+    event.start_event("numba:compile", data={"dispatcher": None, "args": ()})
+    event.end_event("numba:compile", data={"dispatcher": None, "args": ()})
+
+
+def test_compiling_is_said_only_when_numba_compiles_and_the_clock_moves(capsys):
+    """Issue 28, item 10. Bugs caught: "compiling the engine (first run only)" printed on
+    every run, warm ones too; the bar's elapsed time sat at [00:00] for the whole compile."""
+    import time
+
+    bar = _ProgressBar(1.0, 0.0, disable=False)
+    time.sleep(2.5)  # no report: a ticker redraws the bar
+    warm = capsys.readouterr().err
+    assert "compiling" not in warm and "starting" in warm
+    import re
+
+    shown = re.findall(r"\[(\d\d):(\d\d)", warm)
+    assert max(int(m) * 60 + int(s) for m, s in shown) >= 1, warm  # moved, with no report
+    _numba_compiles()
+    time.sleep(1.5)
+    bar(_report(1000))
+    assert "compiling the engine" in capsys.readouterr().err
+    _numba_compiles()  # a later compile (a kernel first used while recording): not said
+    assert bar.desc == "simulating"
+    bar.close()
+
+
 def test_no_eta_while_compiling_and_none_from_the_compile(monkeypatch):
     clock = [100.0]
     monkeypatch.setattr("time.monotonic", lambda: clock[0])
     bar = _ProgressBar(1.0, 0.0, disable=True)
+    assert bar.desc == "starting" and "ETA" not in bar.postfix
+    _numba_compiles()  # numba says it compiles: the bar says so
     assert "compiling the engine" in bar.desc and "ETA" not in bar.postfix
     clock[0] += 300.0  # the compile
     bar(_report(1000))

@@ -23,8 +23,10 @@ def write_outputs(table: ConvergenceTable, out_dir, scene_json: str = "") -> Non
     convergence.png into ``out_dir``; each written to a temporary name and renamed."""
     import h5py
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from engine.output_paths import check_output_dir
+
+    # a folder, never a file, a device or a named pipe (created if missing)
+    out_dir = check_output_dir(out_dir, "output folder", parents=True)
     tmp = out_dir / ".convergence.csv.tmp"
     with tmp.open("w", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
