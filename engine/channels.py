@@ -50,7 +50,7 @@ def run_channels(system: System) -> tuple[dict, dict]:
     for c in sc.controllers:  # always recorded: a controller's record is small
         for key, shape in CONTROLLER_CHANNELS:
             ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
-        if c.release_below is not None:  # only then: results without it stay as they were
+        if c.release_below is not None or c.release_below_fraction is not None:  # only then: results without it stay as they were
             for key, shape in RELEASE_CHANNELS:
                 ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
     if "bending" in want and system.bonds.i.shape[0]:
