@@ -337,16 +337,23 @@ def _run_study(options: Options, out: Path) -> int:
         return code
     summary = write_outputs(out, outcomes, options.threshold)
     print(f"{'run':36s} {'w0 deg/s':>8s} {'detumbled':>10s} {'F target':>9s} "
-          f"{'dv m/s':>8s} {'stress/limit':>12s}")
+          f"{'dv m/s':>8s} {'stress/limit':>12s} {'thrust sat':>10s} {'contact s':>9s}")
     for r in summary["runs"]:
         if r["status"] not in ("completed", "stopped"):
             continue
         td = f"{r['detumble_time']:.2f} s" if r["detumble_time"] is not None else "no"
         ratio = f"{r['stress_ratio']:.3f}" if r["stress_ratio"] is not None else "-"
         print(f"{r['run_id']:36s} {r['omega0'] / DEG:8.3g} {td:>10s} "
-              f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s}")
+              f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s} "
+              f"{_max_fraction(r.get('thrust_saturation')):>10s} "
+              f"{r.get('time_in_contact', 0.0):9.3g}")
     print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
     return report_failures(outcomes)
+
+
+def _max_fraction(fractions) -> str:
+    """The largest per-axis saturation fraction as a percentage ('-' without a record)."""
+    return f"{100 * max(fractions):.0f} %" if fractions else "-"
 
 
 run = api.study_run("detumble", _run_study)

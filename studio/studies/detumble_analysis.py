@@ -89,6 +89,11 @@ def read_detumble(h5_path: Path) -> dict:
         for key in ("delta_v", "angular_impulse_total", "attitude_error", "position_error",
                     "applied_force"):
             d[key] = np.asarray(res.series(f"{ctl}/{key}"))
+        for key in ("samples", "saturated_force_samples", "saturated_torque_samples"):
+            if f"{ctl}/{key}" in res.channels():   # results written before issue 25 lack them
+                d[key] = np.asarray(res.series(f"{ctl}/{key}"))
+        c = next(c for c in scene.controllers if c.name == CONTROLLER)
+        d["hold_offset"] = np.asarray(c.position, float)
         d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
         d["peak_stress"] = peak_bending_stress(res)
         d["material"] = brush.material
@@ -109,7 +114,7 @@ def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
     first_contact = float(t[np.argmax(in_contact)]) if in_contact.any() else None
     stress = float(np.nanmax(d["peak_stress"])) if np.isfinite(d["peak_stress"]).any() \
         else None
-    return {
+    out = {
         "omega0": float(speed[0]) if len(t) else None,
         "omega_end": float(speed[-1]) if len(t) else None,
         "angular_momentum0": float(L[0]) if len(t) else None,
@@ -127,6 +132,33 @@ def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
         "peak_bending_stress": stress, "stress_limit": stress_limit,
         "stress_ratio": (stress / stress_limit) if stress is not None else None,
         "material": d["material"]}
+    out.update(controller_honesty(d))
+    return out
+
+
+def controller_honesty(d: dict) -> dict:
+    """What the controller really did (issue 25 item 5): per body axis the fraction of its
+    samples at which the thrust and the torque command were clipped; the time in contact
+    (frames with a bristle-body contact, times the frame interval); the hold shortfall: how
+    far the chaser sat outside its commanded hold point along the approach axis (the held
+    offset's direction), median over the frames in contact, so the interference reached is
+    the commanded one minus it."""
+    t = d["time"]
+    out = {"thrust_saturation": None, "torque_saturation": None}
+    if "samples" in d and len(t) and d["samples"][-1] > 0:
+        n = float(d["samples"][-1])
+        out["thrust_saturation"] = [float(v) / n for v in d["saturated_force_samples"][-1]]
+        out["torque_saturation"] = [float(v) / n for v in d["saturated_torque_samples"][-1]]
+    in_contact = d["n_contacts"] > 0
+    dt_frame = np.diff(t, append=t[-1]) if len(t) else t
+    out["time_in_contact"] = float(np.sum(dt_frame[in_contact])) if len(t) else 0.0
+    axis = d["hold_offset"] / max(float(np.linalg.norm(d["hold_offset"])), 1e-300)
+    # position_error = hold point - chaser (relative to the target): -e.axis is how far the
+    # chaser sits outside the hold point
+    shortfall = -(d["position_error"] @ axis)
+    out["hold_shortfall_in_contact"] = (float(np.median(shortfall[in_contact]))
+                                        if in_contact.any() else None)
+    return out
 
 
 def plot_omega(path: Path, runs: list[tuple[str, dict]], threshold: float) -> None:

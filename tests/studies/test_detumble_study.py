@@ -170,3 +170,27 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
 def test_bad_options_are_refused_with_exit_2(tmp_path, capsys, argv, text):
     assert main(["study", "detumble", "-o", str(tmp_path), *argv]) == 2
     assert text in capsys.readouterr().err
+
+
+def test_controller_honesty_figures_from_the_recorded_channels():
+    # synthetic record: 10 frames 0.1 s apart, contact in frames 3-7 (5 frames = 0.5 s);
+    # 40 samples, x thrust clipped at 30 of them (75 %); the chaser sits 12 mm outside its
+    # hold point along the offset's direction (+x) while in contact. A fraction over frames
+    # instead of samples, a sign error in the shortfall or contact counted outside the
+    # contact frames each change a number.
+    from studio.studies.detumble_analysis import controller_honesty
+    n = 10
+    contacts = np.zeros(n, int)
+    contacts[3:8] = 4
+    err = np.zeros((n, 3))
+    err[3:8, 0] = -0.012
+    d = {"time": np.arange(n) * 0.1, "n_contacts": contacts, "position_error": err,
+         "hold_offset": np.array([2.5, 0.0, 0.0]),
+         "samples": np.full(n, 40.0),
+         "saturated_force_samples": np.tile([30.0, 0.0, 2.0], (n, 1)),
+         "saturated_torque_samples": np.zeros((n, 3))}
+    out = controller_honesty(d)
+    assert out["thrust_saturation"] == pytest.approx([0.75, 0.0, 0.05])
+    assert out["torque_saturation"] == [0.0, 0.0, 0.0]
+    assert out["time_in_contact"] == pytest.approx(0.5)
+    assert out["hold_shortfall_in_contact"] == pytest.approx(0.012)
