@@ -117,6 +117,24 @@ def root_reactions(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return out
 
 
+def mount_torques(system: System, reactions=None) -> dict[str, np.ndarray]:
+    """Per brush mounted on a body: the moment of its roots' load on that body about the
+    body's centre of mass (N m, world axes): what the body's attitude control sees (the
+    ``root_torque`` is about the brush base). ``reactions``: :func:`root_reactions`' value,
+    if already computed."""
+    reactions = root_reactions(system) if reactions is None else reactions
+    nd, rt, bd = system.nodes, system.roots, system.bodies
+    out = {}
+    for b in system.brushes:
+        if b.mount < 0:
+            continue
+        force, torque = reactions[b.name]
+        origin = bd.pos[b.mount] + quat_to_matrix(bd.q[b.mount]) @ b.base_local
+        # the load on the body is -force at the base with moment -torque about it
+        out[b.name] = -(torque + np.cross(origin - bd.pos[b.mount], force))
+    return out
+
+
 def bending_moments(system: System) -> np.ndarray:
     """Bending moment magnitude per bond at its midpoint (N m), from the current state: the
     bond kernel's own value (the gradient of the bond energy in the bending rotation,
