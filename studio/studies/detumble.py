@@ -159,7 +159,8 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
     api.check_cancel()
     data = read_detumble(h5_path)
-    out = analyse(data, params["threshold"], params["stress_limit"])
+    out = analyse(data, params["threshold"], params["stress_limit"],
+                  isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0))
     s = result.summary
     wall = s.get("wall_s") or 0.0
     out.update(status=result.status if result.status in ("completed", "stopped")
@@ -180,7 +181,8 @@ def build_specs(options: "Options", grid: dict):
                 for diameter in grid["diameters"]:
                     params = {"preset": options.preset, "size": size, "spin_deg": spin,
                               "length_mm": length, "diameter_mm": diameter,
-                              "threshold": options.threshold,
+                              "threshold": options.threshold, "isp": options.isp,
+                              "drift_time": options.drift_time,
                               "stress_limit": grid["stress_limit"]}
                     run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
                         ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
@@ -245,6 +247,8 @@ class Options(ExecutionOptions):
     columns: Optional[int] = None
     duration: Optional[float] = None
     record_interval: Optional[float] = None
+    isp: float = 220.0                # s: the chaser's thrusters (propellant figures)
+    drift_time: float = 3600.0        # s: the debris's CW drift after the run
 
 
 def add_parser(study_subparsers) -> None:
@@ -282,6 +286,13 @@ def add_parser(study_subparsers) -> None:
                    help="simulated time per run at most (default: the preset's; a run "
                         "stops earlier once the target is detumbled)")
     p.add_argument("--record-interval", type=float, default=None, metavar="S")
+    p.add_argument("--isp", type=float, default=220.0, metavar="S",
+                   help="specific impulse of the chaser's thrusters, s (default 220, a "
+                        "hydrazine monopropellant class): the propellant figures, for "
+                        "per-axis and gimballed thrusters")
+    p.add_argument("--drift-time", type=float, default=3600.0, metavar="S",
+                   help="how long the debris's free CW drift after the run is followed for "
+                        "the minimum chaser-debris distance (default 3600)")
     set_command(p, run, Options, default_output="study-detumble")
 
 
@@ -329,6 +340,8 @@ def _run_study(options: Options, out: Path) -> int:
         (options.rows is None or options.rows >= 1, "--rows must be >= 1"),
         (options.columns is None or options.columns >= 1, "--columns must be >= 1"),
         (options.duration is None or options.duration > 0, "--duration must be > 0"),
+        (options.isp > 0, "--isp must be > 0"),
+        (options.drift_time > 0, "--drift-time must be > 0"),
         (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,

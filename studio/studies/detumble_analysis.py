@@ -111,7 +111,8 @@ def read_detumble(h5_path: Path) -> dict:
     return d
 
 
-def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
+def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = 220.0,
+            drift_time: float = 3600.0) -> dict:
     """The run's summary (JSON-able) from :func:`read_detumble`'s arrays."""
     t = d["time"]
     speed = np.linalg.norm(d["omega"], axis=1)
@@ -142,7 +143,7 @@ def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
         "stress_ratio": (stress / stress_limit) if stress is not None else None,
         "material": d["material"]}
     out.update(controller_honesty(d))
-    out.update(designer_figures(d))
+    out.update(designer_figures(d, isp=isp, drift_time=drift_time))
     return out
 
 
