@@ -202,3 +202,36 @@ def test_controller_honesty_figures_from_the_recorded_channels():
     assert out["torque_saturation"] == [0.0, 0.0, 0.0]
     assert out["time_in_contact"] == pytest.approx(0.5)
     assert out["hold_shortfall_in_contact"] == pytest.approx(0.012)
+
+
+def test_tolerance_scenes_tilt_tumble_and_offset_as_documented():
+    # issue 25 item 7, on the upper stage (spin about z, approach along +x, so the surface
+    # moves along y under the brush: e = z x x = +y). Tilt 20 deg: |w| kept, the spin axis
+    # turned 20 deg toward the brush (a w.x component |w| sin 20); tumble 0.3: w.e =
+    # 0.3 |w| / sqrt(1.09); offset 50 mm: hold point and start moved 50 mm along e only.
+    # A tilt about the approach axis (no change against the brush), a tumble that changes
+    # |w|, or an offset along the approach (a different interference) each fail.
+    base = detumble.detumble_scene("detumble_upper_stage")
+    w0 = np.asarray(next(b for b in base["bodies"] if b["name"] == "target")
+                    ["angular_velocity"])
+    wn = np.linalg.norm(w0)
+    axis = np.asarray(base["controllers"][0]["position"]) / np.linalg.norm(
+        base["controllers"][0]["position"])
+    e = np.cross(w0, axis) / np.linalg.norm(np.cross(w0, axis))
+    tilted = detumble.detumble_scene("detumble_upper_stage", tilt_deg=20.0)
+    w = np.asarray(next(b for b in tilted["bodies"] if b["name"] == "target")
+                   ["angular_velocity"])
+    assert np.linalg.norm(w) == pytest.approx(wn, rel=1e-12)
+    assert w @ axis == pytest.approx(wn * math.sin(math.radians(20)), rel=1e-9)
+    tumbling = detumble.detumble_scene("detumble_upper_stage", tumble=0.3)
+    w = np.asarray(next(b for b in tumbling["bodies"] if b["name"] == "target")
+                   ["angular_velocity"])
+    assert np.linalg.norm(w) == pytest.approx(wn, rel=1e-12)
+    assert w @ e == pytest.approx(0.3 * wn / math.sqrt(1.09), rel=1e-9)
+    off = detumble.detumble_scene("detumble_upper_stage", offset=0.05)
+    for get in (lambda s: s["controllers"][0]["position"],
+                lambda s: next(b for b in s["bodies"] if b["name"] == "chaser")["pose"]
+                ["position"]):
+        assert np.asarray(get(off)) - np.asarray(get(base)) == pytest.approx(0.05 * e,
+                                                                            abs=1e-12)
+    engine.parse_scene(tilted), engine.parse_scene(tumbling), engine.parse_scene(off)
