@@ -432,7 +432,8 @@ def _run_study(options: Options, out: Path) -> int:
     save_law(out / "law.json", law)
     write_json_atomic(out / "validation.json", {"impacts": rows})
     write_json_atomic(out / "reduce_summary.json",
-                      {"law": law, "cpu_note": "see benchmarks/mission_reduced.py"})
+                      {"law": law, "runs": [{"run_id": o.run_id, "params": o.params,
+                                             "wall_s": o.wall_s} for o in outcomes]})
     par, ci = law["parameters"], law["intervals"]
     print("Reduced law (95 % intervals):")
     for k in ("k", "p", "c", "eta", "mu", "q", "v_s"):
