@@ -194,7 +194,8 @@ def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0)
     * ``wheel_momentum``: the largest |angular impulse| of the controller's torque over the
       run (N m s), the momentum its wheels store if they provide it;
     * the debris (target) at the end of the run (after a release if there was one): its
-      velocity relative to the chaser ``debris_dv``, and its free Clohessy-Wiltshire drift
+      speed in the Hill frame ``debris_speed`` (what the pushing gave it), its velocity
+      relative to the chaser ``debris_dv``, and its free Clohessy-Wiltshire drift
       over ``drift_time`` from its last recorded state with the chaser held (station
       keeping) at its last position: ``min_separation`` (centre-to-centre, m) and when.
     """
@@ -220,6 +221,7 @@ def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0)
     if len(t):
         rel = d[f"{TARGET}_velocity"][-1] - d[f"{CHASER}_velocity"][-1]
         out["debris_dv"] = float(np.linalg.norm(rel))
+        out["debris_speed"] = float(np.linalg.norm(d[f"{TARGET}_velocity"][-1]))
         dist, when = cw_min_separation(d["mean_motion"], d[f"{TARGET}_position"][-1],
                                        d[f"{TARGET}_velocity"][-1],
                                        d[f"{CHASER}_position"][-1], drift_time)

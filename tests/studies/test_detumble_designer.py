@@ -65,7 +65,7 @@ def test_per_axis_thrust_needs_sqrt2_more_for_a_diagonal_push():
     assert out["propellant_per_axis"] > out["propellant_gimballed"]
     assert out["wheel_momentum"] == pytest.approx(3.0)
     assert out["peak_chaser_torque_com"] == pytest.approx(1.5)
-    assert out["debris_dv"] == pytest.approx(0.1)
+    assert out["debris_dv"] == pytest.approx(0.1) and out["debris_speed"] == pytest.approx(0.1)
     assert out["min_separation"] == pytest.approx(2.0)
 
 
