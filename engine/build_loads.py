@@ -68,6 +68,8 @@ def build_mission(scene: Scene, orbit_n: float, body_names: list[str],
         cp[i, C.P_QTARGET:C.P_QTARGET + 4] = c.orientation
         cp[i, C.P_RELEASE_BELOW] = c.release_below if c.release_below is not None else 0.0
         cp[i, C.P_RELEASE_OFFSET:C.P_RELEASE_OFFSET + 3] = c.release_offset
+        cp[i, C.P_RELEASE_FRACTION] = c.release_below_fraction or 0.0
+        cp[i, C.P_ANTI_WINDUP] = 1.0 if c.anti_windup else 0.0
         cs[i, C.S_RELEASE_TIME] = -1.0   # not released (finite: results stay finite)
         # q_body = q_pose q_p (principal -> shape): the mesh axes are q_body q_p^-1
         cp[i, C.P_QBM:C.P_QBM + 4] = quat_conj(np.asarray(shape_to_body[ci[i, 0]], float))

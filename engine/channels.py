@@ -6,6 +6,7 @@ import numpy as np
 
 from .build import System
 from .observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, bending_moments,
+                          mount_torques,
                           controller_record, energies, root_reactions)
 from .recorder import state_channels, state_frame
 from .state import ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY
@@ -40,6 +41,8 @@ def run_channels(system: System) -> tuple[dict, dict]:
         for b in system.brushes:
             ch[f"brushes/{b.name}/root_force"] = ((3,), "f8")
             ch[f"brushes/{b.name}/root_torque"] = ((3,), "f8")
+            if b.mount >= 0:  # the load's moment about the mount's centre of mass
+                ch[f"brushes/{b.name}/mount_torque"] = ((3,), "f8")
     if "energy" in want:
         for key in ("kinetic", "bond", "contact", "gravity", "dissipated", "external_work",
                     "total"):
@@ -50,7 +53,7 @@ def run_channels(system: System) -> tuple[dict, dict]:
     for c in sc.controllers:  # always recorded: a controller's record is small
         for key, shape in CONTROLLER_CHANNELS:
             ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
-        if c.release_below is not None:  # only then: results without it stay as they were
+        if c.release_below is not None or c.release_below_fraction is not None:  # only then: results without it stay as they were
             for key, shape in RELEASE_CHANNELS:
                 ch[f"controllers/{c.name}/{key}"] = (shape, "f8")
     if "bending" in want and system.bonds.i.shape[0]:
@@ -84,9 +87,12 @@ def run_frame(system: System, channels: dict) -> dict:
             fr[f"bodies/{name}/contact_force"] = bd.f[k]
             fr[f"bodies/{name}/contact_torque"] = bd.tq[k]
     if any(k.startswith("brushes/") for k in channels):
-        for name, (f, t) in root_reactions(system).items():
+        reactions = root_reactions(system)
+        for name, (f, t) in reactions.items():
             fr[f"brushes/{name}/root_force"] = f
             fr[f"brushes/{name}/root_torque"] = t
+        for name, t in mount_torques(system, reactions).items():
+            fr[f"brushes/{name}/mount_torque"] = t
     if "energy/total" in channels:
         for key, val in energies(system).items():
             fr[f"energy/{key}"] = val

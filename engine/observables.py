@@ -20,8 +20,11 @@ CONTROLLER_CHANNELS = (("commanded_force", (3,)), ("applied_force", (3,)),
                         ("commanded_torque", (3,)), ("applied_torque", (3,)),
                         ("impulse", (3,)), ("angular_impulse", (3,)), ("delta_v", ()),
                         ("angular_impulse_total", ()), ("position_error", (3,)),
-                        ("attitude_error", (3,)))
-#: added for a controller with a release rule (``release_below``): 1 once released, and the
+                        ("attitude_error", (3,)), ("samples", ()),
+                        ("saturated_force_samples", (3,)), ("saturated_torque_samples", (3,)))
+#: (``samples`` counts the controller's samples, ``saturated_*_samples`` those at which each
+#: body axis's command was clipped: their ratio is the saturation fraction)
+#: added for a controller with a release rule (``release_below`` or ``_fraction``): 1 once released, and the
 #: time of the releasing sample (-1 before)
 RELEASE_CHANNELS = (("released", ()), ("release_time", ()))
 
@@ -38,7 +41,11 @@ def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
     out = {k: cs[i:i + 3].copy() for k, i in slots.items()}
     out["delta_v"] = np.float64(cs[C.S_DELTA_V])
     out["angular_impulse_total"] = np.float64(cs[C.S_ANG_IMPULSE_ABS])
-    if system.scene.controllers[c].release_below is not None:
+    out["samples"] = np.float64(cs[C.S_SAMPLES])
+    out["saturated_force_samples"] = cs[C.S_SAT_F:C.S_SAT_F + 3].copy()
+    out["saturated_torque_samples"] = cs[C.S_SAT_T:C.S_SAT_T + 3].copy()
+    ctl = system.scene.controllers[c]
+    if ctl.release_below is not None or ctl.release_below_fraction is not None:
         out["released"] = np.float64(cs[C.S_RELEASED])
         out["release_time"] = np.float64(cs[C.S_RELEASE_TIME])
     return out
@@ -107,6 +114,24 @@ def root_reactions(system: System) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         force = -f.sum(axis=0)
         torque = -(np.cross(nd.x[nodes] - origin, f).sum(axis=0) + nd.t[nodes].sum(axis=0))
         out[b.name] = (force, torque)
+    return out
+
+
+def mount_torques(system: System, reactions=None) -> dict[str, np.ndarray]:
+    """Per brush mounted on a body: the moment of its roots' load on that body about the
+    body's centre of mass (N m, world axes): what the body's attitude control sees (the
+    ``root_torque`` is about the brush base). ``reactions``: :func:`root_reactions`' value,
+    if already computed."""
+    reactions = root_reactions(system) if reactions is None else reactions
+    nd, rt, bd = system.nodes, system.roots, system.bodies
+    out = {}
+    for b in system.brushes:
+        if b.mount < 0:
+            continue
+        force, torque = reactions[b.name]
+        origin = bd.pos[b.mount] + quat_to_matrix(bd.q[b.mount]) @ b.base_local
+        # the load on the body is -force at the base with moment -torque about it
+        out[b.name] = -(torque + np.cross(origin - bd.pos[b.mount], force))
     return out
 
 

@@ -219,7 +219,12 @@ class PoseController(_Model):
     (rad/s) and a ``reference``, at the first sample where the reference body's angular
     speed is below ``release_below`` the controller latches "released" and aims from then on
     at ``position`` + ``release_offset`` (m, world axes): the chaser backs off so its brush
-    lets go of a target it has detumbled. None (default) never releases."""
+    lets go of a target it has detumbled. None (default) never releases.
+    ``release_below_fraction`` states the threshold relative to the reference's |omega| at
+    the controller's first sample instead (e.g. 0.05: release at 5 % of the initial spin);
+    give one of the two. ``anti_windup`` (default off, so that earlier scenes reproduce)
+    stops the integral growing while a command it pushes is clipped (conditional
+    integration; engine.kernels.control)."""
 
     name: str = "controller"
     body: str
@@ -239,6 +244,12 @@ class PoseController(_Model):
         None, description="rad/s: release once the reference's |omega| is below; None = never")
     release_offset: Vector3 = Field((0.0, 0.0, 0.0),
                                     description="m, world axes: added to position once released")
+    release_below_fraction: Optional[float] = Field(
+        None, gt=0.0, lt=1.0,
+        description="release once the reference's |omega| is below this fraction of its "
+                    "value at the first sample; None = use release_below")
+    anti_windup: bool = Field(False, description="conditional integration of the integral "
+                                                 "term while the command saturates")
 
     @field_validator("orientation")
     @classmethod
@@ -344,6 +355,14 @@ class Scene(_Model):
                 problems.append((f"controllers.{i}.release_below", c.release_below,
                                  "needs a reference body (the spin it watches): set "
                                  "reference, or release_below to null"))
+            if c.release_below_fraction is not None and c.reference is None:
+                problems.append((f"controllers.{i}.release_below_fraction",
+                                 c.release_below_fraction,
+                                 "needs a reference body (the spin it watches)"))
+            if c.release_below_fraction is not None and c.release_below is not None:
+                problems.append((f"controllers.{i}.release_below_fraction",
+                                 c.release_below_fraction,
+                                 "give release_below or release_below_fraction, not both"))
         for i, body in enumerate(self.bodies):
             if (any(body.external_force) or any(body.external_torque)) \
                     and body.motion.type != "free":

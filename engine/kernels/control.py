@@ -5,7 +5,20 @@ Each controller samples its body's state when the step loop's time reaches its n
 time (every ``sample_interval``), computes a PID command on the position and attitude
 errors, expresses it in the body's mesh axes, clips each axis to the saturation, and holds
 that body-axis force and torque until the next sample (zero-order hold; the thrusters turn
-with the body in between). Release rule (``release_below``): at the first sample where the
+with the body in between).
+
+Anti-windup (``P_ANTI_WINDUP``, spec ``anti_windup``): conditional integration ("clamping").
+At each sample the loop's integral is first advanced by e h; if the resulting command
+saturates some body axis and the integral's increment, in body axes, pushes that axis
+further into its limit (same sign as the clipped command), the increment is rejected and the
+command recomputed with the old integral. The integral thus stops growing while the actuator
+cannot deliver more, and a saturated loop comes out of saturation without the overshoot of
+a wound-up integrator; while unsaturated it is the plain PID. Each sample also counts, per
+body axis, whether the force and the torque command were clipped (``S_SAT_F``, ``S_SAT_T``):
+the saturation fraction is that count over ``S_SAMPLES``.
+
+Release rule (``release_below``, or ``release_below_fraction`` of the reference's |omega|
+at the first sample): at the first sample where the
 reference body's angular speed |omega| is below the threshold, the controller latches
 "released" and from that sample on aims at the target position plus ``release_offset``
 (world axes): the chaser backs off and its brush lets go of the target. Every step it adds the held force and torque to the body and
@@ -36,7 +49,9 @@ P_QTARGET = 18                       # 4: target orientation of the mesh axes
 P_QBM = 22                           # 4: principal frame -> mesh axes (q_mesh = q_body q_bm)
 P_RELEASE_BELOW = 26                 # rad/s: release once |omega_reference| < this; 0 = never
 P_RELEASE_OFFSET = 27                # 3: added to the target position once released (m)
-P_SIZE = 30
+P_ANTI_WINDUP = 30                   # 1: conditional integration (below); 0: plain integral
+P_RELEASE_FRACTION = 31              # release once |omega_ref| < this x its first-sample value
+P_SIZE = 32
 
 # state slots
 S_NEXT = 0
@@ -55,7 +70,10 @@ S_ERR_ATT = 30     # 3: attitude error (rotation vector) at the last sample, wor
 S_SAMPLES = 33
 S_RELEASED = 34    # 0 holding, 1 released (latched)
 S_RELEASE_TIME = 35  # time of the sample that released (s); -1 until then (engine.build)
-S_SIZE = 36
+S_SAT_F = 36       # 3: samples at which each body axis's force command was clipped
+S_SAT_T = 39       # 3: the same for the torque
+S_REF_SPIN0 = 42   # the reference's |omega| at the first sample (rad/s); 0 without one
+S_SIZE = 43
 
 
 @njit(cache=True, inline="always")
@@ -68,16 +86,57 @@ def _clip(x, limit):
 
 
 @njit(cache=True)
+def _pid_axis3(c, cp, cs, mw, mx, my, mz, kp_slot, ki_slot, int_slot, max_slot,
+               ex, ey, ez, dx, dy, dz, h):
+    """One loop's PID command (world axes): kp e + d + ki (I + e h), with I advanced by e h
+    unless anti-windup rejects the increment (module docstring). ``d`` is the derivative
+    term, already scaled."""
+    kp = cp[c, kp_slot]
+    ki = cp[c, ki_slot]
+    ix = cs[c, int_slot] + ex * h
+    iy = cs[c, int_slot + 1] + ey * h
+    iz = cs[c, int_slot + 2] + ez * h
+    ux = kp * ex + dx + ki * ix
+    uy = kp * ey + dy + ki * iy
+    uz = kp * ez + dz + ki * iz
+    if cp[c, P_ANTI_WINDUP] != 0.0 and ki != 0.0:
+        bx, by, bz = qrot_inv(mw, mx, my, mz, ux, uy, uz)
+        gx, gy, gz = qrot_inv(mw, mx, my, mz, ki * ex * h, ki * ey * h, ki * ez * h)
+        reject = ((abs(bx) > cp[c, max_slot] and gx * bx > 0.0)
+                  or (abs(by) > cp[c, max_slot + 1] and gy * by > 0.0)
+                  or (abs(bz) > cp[c, max_slot + 2] and gz * bz > 0.0))
+        if reject:
+            ix -= ex * h
+            iy -= ey * h
+            iz -= ez * h
+            ux = kp * ex + dx + ki * ix
+            uy = kp * ey + dy + ki * iy
+            uz = kp * ez + dz + ki * iz
+    cs[c, int_slot] = ix
+    cs[c, int_slot + 1] = iy
+    cs[c, int_slot + 2] = iz
+    return ux, uy, uz
+
+
+@njit(cache=True)
 def _sample(c, ci, cp, cs, pos, q, v, w, mass, time):
     k = ci[c, 0]
     r = ci[c, 1]
     h = cp[c, P_INTERVAL]
     # ---- release rule: latch once the reference's spin is below the threshold
-    if cs[c, S_RELEASED] == 0.0 and cp[c, P_RELEASE_BELOW] > 0.0 and r >= 0:
+    if r >= 0:
         spin = math.sqrt(w[r, 0] * w[r, 0] + w[r, 1] * w[r, 1] + w[r, 2] * w[r, 2])
-        if spin < cp[c, P_RELEASE_BELOW]:
+        if cs[c, S_SAMPLES] == 0.0:
+            cs[c, S_REF_SPIN0] = spin
+        below = cp[c, P_RELEASE_BELOW]
+        if cp[c, P_RELEASE_FRACTION] > 0.0:
+            below = cp[c, P_RELEASE_FRACTION] * cs[c, S_REF_SPIN0]
+        if cs[c, S_RELEASED] == 0.0 and below > 0.0 and spin < below:
             cs[c, S_RELEASED] = 1.0
             cs[c, S_RELEASE_TIME] = time
+    # the body's mesh axes (the thrusters' and wheels' axes)
+    mw, mx, my, mz = qmul(q[k, 0], q[k, 1], q[k, 2], q[k, 3], cp[c, P_QBM], cp[c, P_QBM + 1],
+                          cp[c, P_QBM + 2], cp[c, P_QBM + 3])
     # ---- position loop (world axes)
     tx0 = cp[c, P_TARGET]
     ty0 = cp[c, P_TARGET + 1]
@@ -104,15 +163,10 @@ def _sample(c, ci, cp, cs, pos, q, v, w, mass, time):
     cs[c, S_ERR_POS + 2] = ez
     fx = fy = fz = 0.0
     if math.sqrt(ex * ex + ey * ey + ez * ez) > cp[c, P_DB_POS]:
-        cs[c, S_INT_POS] += ex * h
-        cs[c, S_INT_POS + 1] += ey * h
-        cs[c, S_INT_POS + 2] += ez * h
-        fx = cp[c, P_KP] * ex + cp[c, P_KD] * dvx + cp[c, P_KI] * cs[c, S_INT_POS]
-        fy = cp[c, P_KP] * ey + cp[c, P_KD] * dvy + cp[c, P_KI] * cs[c, S_INT_POS + 1]
-        fz = cp[c, P_KP] * ez + cp[c, P_KD] * dvz + cp[c, P_KI] * cs[c, S_INT_POS + 2]
+        fx, fy, fz = _pid_axis3(c, cp, cs, mw, mx, my, mz, P_KP, P_KI, S_INT_POS, P_MAXF,
+                                ex, ey, ez, cp[c, P_KD] * dvx, cp[c, P_KD] * dvy,
+                                cp[c, P_KD] * dvz, h)
     # ---- attitude loop: rotation vector of q_target q_mesh^-1 (world axes)
-    mw, mx, my, mz = qmul(q[k, 0], q[k, 1], q[k, 2], q[k, 3], cp[c, P_QBM], cp[c, P_QBM + 1],
-                          cp[c, P_QBM + 2], cp[c, P_QBM + 3])
     ew, exq, eyq, ezq = qmul(cp[c, P_QTARGET], cp[c, P_QTARGET + 1], cp[c, P_QTARGET + 2],
                              cp[c, P_QTARGET + 3], mw, -mx, -my, -mz)
     if ew < 0.0:
@@ -131,12 +185,9 @@ def _sample(c, ci, cp, cs, pos, q, v, w, mass, time):
     cs[c, S_ERR_ATT + 2] = az
     tx = ty = tz = 0.0
     if ang > cp[c, P_DB_ATT]:
-        cs[c, S_INT_ATT] += ax * h
-        cs[c, S_INT_ATT + 1] += ay * h
-        cs[c, S_INT_ATT + 2] += az * h
-        tx = cp[c, P_KPA] * ax - cp[c, P_KDA] * w[k, 0] + cp[c, P_KIA] * cs[c, S_INT_ATT]
-        ty = cp[c, P_KPA] * ay - cp[c, P_KDA] * w[k, 1] + cp[c, P_KIA] * cs[c, S_INT_ATT + 1]
-        tz = cp[c, P_KPA] * az - cp[c, P_KDA] * w[k, 2] + cp[c, P_KIA] * cs[c, S_INT_ATT + 2]
+        tx, ty, tz = _pid_axis3(c, cp, cs, mw, mx, my, mz, P_KPA, P_KIA, S_INT_ATT, P_MAXT,
+                                ax, ay, az, -cp[c, P_KDA] * w[k, 0],
+                                -cp[c, P_KDA] * w[k, 1], -cp[c, P_KDA] * w[k, 2], h)
     # ---- into the body's mesh axes, saturate per axis
     bfx, bfy, bfz = qrot_inv(mw, mx, my, mz, fx, fy, fz)
     btx, bty, btz = qrot_inv(mw, mx, my, mz, tx, ty, tz)
@@ -146,6 +197,11 @@ def _sample(c, ci, cp, cs, pos, q, v, w, mass, time):
     cs[c, S_CMD_T] = btx
     cs[c, S_CMD_T + 1] = bty
     cs[c, S_CMD_T + 2] = btz
+    for a in range(3):
+        if abs(cs[c, S_CMD_F + a]) > cp[c, P_MAXF + a]:
+            cs[c, S_SAT_F + a] += 1.0
+        if abs(cs[c, S_CMD_T + a]) > cp[c, P_MAXT + a]:
+            cs[c, S_SAT_T + a] += 1.0
     cs[c, S_APP_F] = _clip(bfx, cp[c, P_MAXF])
     cs[c, S_APP_F + 1] = _clip(bfy, cp[c, P_MAXF + 1])
     cs[c, S_APP_F + 2] = _clip(bfz, cp[c, P_MAXF + 2])

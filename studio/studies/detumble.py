@@ -25,6 +25,7 @@ Outputs (``-o DIR``): ``detumble_summary.json`` (every run's numbers and paramet
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 import math
 from dataclasses import dataclass
@@ -74,7 +75,8 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
                    length_mm: Optional[float] = None, diameter_mm: Optional[float] = None,
                    n_nodes: Optional[int] = None, rows: Optional[int] = None,
                    columns: Optional[int] = None, duration: Optional[float] = None,
-                   record_interval: Optional[float] = None) -> dict:
+                   record_interval: Optional[float] = None, tilt_deg: float = 0.0,
+                   tumble: float = 0.0, offset: float = 0.0) -> dict:
     """The scene (dict) of one run: the preset with the target scaled by ``size``, spinning
     at ``spin_deg`` deg/s about its preset axis, bristles ``length_mm`` long with a
     ``diameter_mm`` root; ``n_nodes``, ``rows`` / ``columns``, ``duration`` and
@@ -93,8 +95,8 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
                                 f"{CHASER!r}, a brush mounted on {CHASER!r} and the "
                                 f"controller {CONTROLLER!r}")
     target, chaser = bodies[TARGET], bodies[CHASER]
-    offset = np.asarray(ctl["position"], float)
-    axis = offset / np.linalg.norm(offset)
+    offset_hold = np.asarray(ctl["position"], float)
+    axis = offset_hold / np.linalg.norm(offset_hold)
     shift = 0.0
     if size != 1.0:
         before = _target_extent(target, axis)
@@ -112,6 +114,15 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         stop = scene["run"].get("stop")
         if stop and stop.get("body") == TARGET:  # the preset's stop is relative to its spin
             stop["value"] *= spin_deg * DEG / float(np.linalg.norm(w_preset))
+    w_now = np.asarray(target["angular_velocity"], float)
+    e = np.cross(w_now, axis)
+    e = e / np.linalg.norm(e) if np.linalg.norm(e) > 0 else np.cross(axis, [0.0, 0.0, 1.0])
+    if tilt_deg or tumble:
+        from scipy.spatial.transform import Rotation
+
+        wn = float(np.linalg.norm(w_now))
+        w_new = Rotation.from_rotvec(math.radians(tilt_deg) * e).apply(w_now) + tumble * wn * e
+        target["angular_velocity"] = list(w_new / np.linalg.norm(w_new) * wn)
     # a longer bristle reaches farther along the approach axis by its projection on it
     from engine.layout import quat_to_matrix
     along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
@@ -129,9 +140,9 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
             ratio = b["tip_radius"] / b["root_radius"]
             b["root_radius"] = 0.5 * diameter_mm * 1e-3
             b["tip_radius"] = b["root_radius"] * ratio
-    ctl["position"] = list(offset + shift * axis)
+    ctl["position"] = list(offset_hold + shift * axis + offset * e)
     chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
-                                      + shift * axis)
+                                      + shift * axis + offset * e)
     for key, value in (("n_nodes", n_nodes), ("rows", rows), ("columns", columns)):
         if value is not None:
             for b in mounted:
@@ -146,7 +157,11 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         f"{np.linalg.norm(target['angular_velocity']) / DEG:g} deg/s, bristles "
         f"{brush['bristle_length'] * 1e3:g} mm, root diameter "
         f"{2 * brush['root_radius'] * 1e3:g} mm, {brush['rows']} x {brush['columns']}, "
-        f"{brush['n_nodes']} nodes each. " + scene["description"])
+        f"{brush['n_nodes']} nodes each"
+        + (f", spin axis tilted {tilt_deg:g} deg" if tilt_deg else "")
+        + (f", tumbling ({tumble:g} x |w| across)" if tumble else "")
+        + (f", held {offset * 1e3:g} mm off-centre" if offset else "") + ". "
+        + scene["description"])
     return scene
 
 
@@ -159,7 +174,8 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
     api.check_cancel()
     data = read_detumble(h5_path)
-    out = analyse(data, params["threshold"], params["stress_limit"])
+    out = analyse(data, params["threshold"], params["stress_limit"],
+                  isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0))
     s = result.summary
     wall = s.get("wall_s") or 0.0
     out.update(status=result.status if result.status in ("completed", "stopped")
@@ -174,23 +190,27 @@ def build_specs(options: "Options", grid: dict):
     from .runner import RunSpec
 
     specs = []
-    for size in grid["sizes"]:
-        for spin in grid["spins"]:
-            for length in grid["lengths"]:
-                for diameter in grid["diameters"]:
-                    params = {"preset": options.preset, "size": size, "spin_deg": spin,
-                              "length_mm": length, "diameter_mm": diameter,
-                              "threshold": options.threshold,
-                              "stress_limit": grid["stress_limit"]}
-                    run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
-                        ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
-                    scene = detumble_scene(
-                        options.preset, size=size, spin_deg=spin, length_mm=length,
-                        diameter_mm=diameter, n_nodes=options.n_nodes, rows=options.rows,
-                        columns=options.columns, duration=options.duration,
-                        record_interval=options.record_interval)
-                    specs.append(RunSpec(run_id=run_id, scene=scene, params=params,
-                                         task="studio.studies.detumble:detumble_task"))
+    for size, spin, length, diameter, tilt, tumble, off in itertools.product(
+            grid["sizes"], grid["spins"], grid["lengths"], grid["diameters"], grid["tilts"],
+            grid["tumbles"], grid["offsets"]):
+        params = {"preset": options.preset, "size": size, "spin_deg": spin,
+                  "tilt_deg": tilt, "tumble": tumble, "offset": off,
+                  "length_mm": length, "diameter_mm": diameter,
+                  "threshold": options.threshold, "isp": options.isp,
+                  "drift_time": options.drift_time,
+                  "stress_limit": grid["stress_limit"]}
+        run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
+            ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
+        run_id += "".join(f"_{k}{v:g}" for k, v in (
+            ("tilt", tilt), ("tumble", tumble), ("off", off)) if v)
+        scene = detumble_scene(
+            options.preset, size=size, spin_deg=spin, length_mm=length,
+            diameter_mm=diameter, n_nodes=options.n_nodes, rows=options.rows,
+            columns=options.columns, duration=options.duration,
+            record_interval=options.record_interval, tilt_deg=tilt,
+            tumble=tumble, offset=off)
+        specs.append(RunSpec(run_id=run_id, scene=scene, params=params,
+                             task="studio.studies.detumble:detumble_task"))
     return specs
 
 
@@ -229,6 +249,16 @@ def _floats(text: Optional[str], what: str) -> list:
     return values
 
 
+def _signed(text: str, what: str) -> list:
+    """A comma-separated list of finite numbers (any sign)."""
+    from .study_command import number_list
+
+    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
+    if not values or any(not math.isfinite(v) for v in values):
+        raise ValueError(f"{what} {text!r}: finite numbers")
+    return values
+
+
 @dataclass
 class Options(ExecutionOptions):
     """``brush-studio study detumble`` (``None``: the preset's value)."""
@@ -245,6 +275,11 @@ class Options(ExecutionOptions):
     columns: Optional[int] = None
     duration: Optional[float] = None
     record_interval: Optional[float] = None
+    tilts: str = "0"                  # spin-axis tilts, deg
+    tumbles: str = "0"                # transverse spin fractions
+    offsets: str = "0"                # hold offsets across the surface's motion, m
+    isp: float = 220.0                # s: the chaser's thrusters (propellant figures)
+    drift_time: float = 3600.0        # s: the debris's CW drift after the run
 
 
 def add_parser(study_subparsers) -> None:
@@ -282,6 +317,22 @@ def add_parser(study_subparsers) -> None:
                    help="simulated time per run at most (default: the preset's; a run "
                         "stops earlier once the target is detumbled)")
     p.add_argument("--record-interval", type=float, default=None, metavar="S")
+    p.add_argument("--tilts", default="0", metavar="DEG",
+                   help="tolerance sweep: spin-axis tilts toward the brush normal, deg "
+                        "(default 0)")
+    p.add_argument("--tumbles", default="0", metavar="FRACTION",
+                   help="tolerance sweep: a transverse spin component, as a fraction of "
+                        "|omega| (a tumbling, non-principal spin; default 0)")
+    p.add_argument("--offsets", default="0", metavar="M",
+                   help="tolerance sweep: the hold point moved across the surface's motion, "
+                        "m (default 0)")
+    p.add_argument("--isp", type=float, default=220.0, metavar="S",
+                   help="specific impulse of the chaser's thrusters, s (default 220, a "
+                        "hydrazine monopropellant class): the propellant figures, for "
+                        "per-axis and gimballed thrusters")
+    p.add_argument("--drift-time", type=float, default=3600.0, metavar="S",
+                   help="how long the debris's free CW drift after the run is followed for "
+                        "the minimum chaser-debris distance (default 3600)")
     set_command(p, run, Options, default_output="study-detumble")
 
 
@@ -293,7 +344,10 @@ def _grid(options: Options) -> dict:
     grid = {"sizes": _floats(options.sizes, "--sizes"),
             "spins": _floats(options.spins, "--spins"),
             "lengths": _floats(options.lengths, "--lengths"),
-            "diameters": _floats(options.diameters, "--diameters")}
+            "diameters": _floats(options.diameters, "--diameters"),
+            "tilts": _signed(options.tilts, "--tilts"),
+            "tumbles": _signed(options.tumbles, "--tumbles"),
+            "offsets": _signed(options.offsets, "--offsets")}
     try:
         scene = presets.load_preset_or_file(options.preset)
     except (KeyError, OSError, engine.SceneError) as exc:
@@ -329,6 +383,8 @@ def _run_study(options: Options, out: Path) -> int:
         (options.rows is None or options.rows >= 1, "--rows must be >= 1"),
         (options.columns is None or options.columns >= 1, "--columns must be >= 1"),
         (options.duration is None or options.duration > 0, "--duration must be > 0"),
+        (options.isp > 0, "--isp must be > 0"),
+        (options.drift_time > 0, "--drift-time must be > 0"),
         (options.record_interval is None or options.record_interval > 0,
          "--record-interval must be > 0")]
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
@@ -337,16 +393,23 @@ def _run_study(options: Options, out: Path) -> int:
         return code
     summary = write_outputs(out, outcomes, options.threshold)
     print(f"{'run':36s} {'w0 deg/s':>8s} {'detumbled':>10s} {'F target':>9s} "
-          f"{'dv m/s':>8s} {'stress/limit':>12s}")
+          f"{'dv m/s':>8s} {'stress/limit':>12s} {'thrust sat':>10s} {'contact s':>9s}")
     for r in summary["runs"]:
         if r["status"] not in ("completed", "stopped"):
             continue
         td = f"{r['detumble_time']:.2f} s" if r["detumble_time"] is not None else "no"
         ratio = f"{r['stress_ratio']:.3f}" if r["stress_ratio"] is not None else "-"
         print(f"{r['run_id']:36s} {r['omega0'] / DEG:8.3g} {td:>10s} "
-              f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s}")
+              f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s} "
+              f"{_max_fraction(r.get('thrust_saturation')):>10s} "
+              f"{r.get('time_in_contact', 0.0):9.3g}")
     print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
     return report_failures(outcomes)
+
+
+def _max_fraction(fractions) -> str:
+    """The largest per-axis saturation fraction as a percentage ('-' without a record)."""
+    return f"{100 * max(fractions):.0f} %" if fractions else "-"
 
 
 run = api.study_run("detumble", _run_study)

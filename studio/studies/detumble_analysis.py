@@ -81,6 +81,14 @@ def read_detumble(h5_path: Path) -> dict:
         # its own base, so the largest per frame is kept
         d["chaser_force"] = -sum(np.asarray(res.series(f"brushes/{b.name}/root_force"))
                                  for b in mounted)
+        if all(f"brushes/{b.name}/mount_torque" in res.channels() for b in mounted):
+            # about the chaser's centre of mass: these add (issue 25 item 6)
+            d["chaser_torque_com"] = sum(np.asarray(res.series(f"brushes/{b.name}/mount_torque"))
+                                         for b in mounted)
+        d["chaser_mass"] = float(res.static(f"bodies/{CHASER}/mass"))
+        for who in (TARGET, CHASER):
+            d[f"{who}_position"] = np.asarray(res.series(f"bodies/{who}/position"))
+            d[f"{who}_velocity"] = np.asarray(res.series(f"bodies/{who}/velocity"))
         torques = [np.asarray(res.series(f"brushes/{b.name}/root_torque")) for b in mounted]
         d["chaser_torque"] = np.stack(torques)[
             np.argmax(np.stack([np.linalg.norm(t, axis=1) for t in torques]), axis=0),
@@ -89,6 +97,12 @@ def read_detumble(h5_path: Path) -> dict:
         for key in ("delta_v", "angular_impulse_total", "attitude_error", "position_error",
                     "applied_force"):
             d[key] = np.asarray(res.series(f"{ctl}/{key}"))
+        for key in ("samples", "saturated_force_samples", "saturated_torque_samples",
+                    "angular_impulse", "released", "release_time"):
+            if f"{ctl}/{key}" in res.channels():   # results written before issue 25 lack them
+                d[key] = np.asarray(res.series(f"{ctl}/{key}"))
+        c = next(c for c in scene.controllers if c.name == CONTROLLER)
+        d["hold_offset"] = np.asarray(c.position, float)
         d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
         d["peak_stress"] = peak_bending_stress(res)
         d["material"] = brush.material
@@ -97,7 +111,8 @@ def read_detumble(h5_path: Path) -> dict:
     return d
 
 
-def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
+def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = 220.0,
+            drift_time: float = 3600.0) -> dict:
     """The run's summary (JSON-able) from :func:`read_detumble`'s arrays."""
     t = d["time"]
     speed = np.linalg.norm(d["omega"], axis=1)
@@ -109,7 +124,7 @@ def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
     first_contact = float(t[np.argmax(in_contact)]) if in_contact.any() else None
     stress = float(np.nanmax(d["peak_stress"])) if np.isfinite(d["peak_stress"]).any() \
         else None
-    return {
+    out = {
         "omega0": float(speed[0]) if len(t) else None,
         "omega_end": float(speed[-1]) if len(t) else None,
         "angular_momentum0": float(L[0]) if len(t) else None,
@@ -127,6 +142,114 @@ def analyse(d: dict, threshold: float, stress_limit: float) -> dict:
         "peak_bending_stress": stress, "stress_limit": stress_limit,
         "stress_ratio": (stress / stress_limit) if stress is not None else None,
         "material": d["material"]}
+    out.update(controller_honesty(d))
+    out.update(designer_figures(d, isp=isp, drift_time=drift_time))
+    return out
+
+
+def controller_honesty(d: dict) -> dict:
+    """What the controller really did (issue 25 item 5): per body axis the fraction of its
+    samples at which the thrust and the torque command were clipped; the time in contact
+    (frames with a bristle-body contact, times the frame interval); the hold shortfall: how
+    far the chaser sat outside its commanded hold point along the approach axis (the held
+    offset's direction), median over the frames in contact, so the interference reached is
+    the commanded one minus it."""
+    t = d["time"]
+    out = {"thrust_saturation": None, "torque_saturation": None}
+    if "samples" in d and len(t) and d["samples"][-1] > 0:
+        n = float(d["samples"][-1])
+        out["thrust_saturation"] = [float(v) / n for v in d["saturated_force_samples"][-1]]
+        out["torque_saturation"] = [float(v) / n for v in d["saturated_torque_samples"][-1]]
+    in_contact = d["n_contacts"] > 0
+    dt_frame = np.diff(t, append=t[-1]) if len(t) else t
+    out["time_in_contact"] = float(np.sum(dt_frame[in_contact])) if len(t) else 0.0
+    axis = d["hold_offset"] / max(float(np.linalg.norm(d["hold_offset"])), 1e-300)
+    # position_error = hold point - chaser (relative to the target): -e.axis is how far the
+    # chaser sits outside the hold point
+    shortfall = -(d["position_error"] @ axis)
+    out["hold_shortfall_in_contact"] = (float(np.median(shortfall[in_contact]))
+                                        if in_contact.any() else None)
+    return out
+
+
+G0 = 9.80665  # m/s^2, standard gravity (the definition of Isp in seconds)
+
+
+def propellant_mass(mass: float, delta_v: float, isp: float) -> float:
+    """Propellant (kg) a chaser of wet mass ``mass`` burns for ``delta_v`` at specific
+    impulse ``isp`` (s): the rocket equation, m (1 - exp(-dv / (Isp g0)))."""
+    return mass * (1.0 - math.exp(-delta_v / (isp * G0)))
+
+
+def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0) -> dict:
+    """The mission designer's figures of a run (issue 25 item 6):
+
+    * ``peak_chaser_torque_com`` / ``sliding_chaser_torque_com``: the brush's moment on the
+      chaser about its centre of mass (what its attitude control must hold), peak and median
+      over the frames in contact (``None`` for results without the ``mount_torque`` channel);
+    * ``delta_v_gimballed`` (integral of |F|/m, the controller's channel) and
+      ``delta_v_per_axis`` (integral of |Fx|+|Fy|+|Fz| over m, body-axis thrusters, from the
+      recorded applied force by the trapezoid rule over frames) and the propellant mass of
+      each at ``isp`` (s);
+    * ``wheel_momentum``: the largest |angular impulse| of the controller's torque over the
+      run (N m s), the momentum its wheels store if they provide it;
+    * the debris (target) at the end of the run (after a release if there was one): its
+      speed in the Hill frame ``debris_speed`` (what the pushing gave it), its velocity
+      relative to the chaser ``debris_dv``, and its free Clohessy-Wiltshire drift
+      over ``drift_time`` from its last recorded state with the chaser held (station
+      keeping) at its last position: ``min_separation`` (centre-to-centre, m) and when.
+    """
+    t = d["time"]
+    out = {}
+    in_contact = d["n_contacts"] > 0
+    if "chaser_torque_com" in d and len(t):
+        tq = np.linalg.norm(d["chaser_torque_com"], axis=1)
+        out["peak_chaser_torque_com"] = float(tq.max())
+        out["sliding_chaser_torque_com"] = (float(np.median(tq[in_contact]))
+                                            if in_contact.any() else 0.0)
+    else:
+        out["peak_chaser_torque_com"] = out["sliding_chaser_torque_com"] = None
+    m = d["chaser_mass"]
+    dv_g = float(d["delta_v"][-1]) if len(t) else 0.0
+    thrust = np.sum(np.abs(d["applied_force"]), axis=1)
+    dv_a = float(np.trapezoid(thrust, t) / m) if len(t) > 1 else 0.0
+    out.update(delta_v_gimballed=dv_g, delta_v_per_axis=dv_a, isp=isp,
+               propellant_gimballed=propellant_mass(m, dv_g, isp),
+               propellant_per_axis=propellant_mass(m, dv_a, isp))
+    out["wheel_momentum"] = (float(np.linalg.norm(d["angular_impulse"], axis=1).max())
+                             if "angular_impulse" in d and len(t) else None)
+    if len(t):
+        rel = d[f"{TARGET}_velocity"][-1] - d[f"{CHASER}_velocity"][-1]
+        out["debris_dv"] = float(np.linalg.norm(rel))
+        out["debris_speed"] = float(np.linalg.norm(d[f"{TARGET}_velocity"][-1]))
+        dist, when = cw_min_separation(d["mean_motion"], d[f"{TARGET}_position"][-1],
+                                       d[f"{TARGET}_velocity"][-1],
+                                       d[f"{CHASER}_position"][-1], drift_time)
+        out.update(drift_time=drift_time, min_separation=dist, min_separation_after=when)
+    return out
+
+
+def cw_drift(n: float, pos, vel, times) -> np.ndarray:
+    """Positions (len(times), 3) of a free point in the Hill frame after each time, from
+    ``pos``, ``vel``: the closed-form Clohessy-Wiltshire solution (straight line if n = 0)."""
+    pos = np.asarray(pos, float)
+    vel = np.asarray(vel, float)
+    times = np.asarray(times, float)
+    if n == 0.0:
+        return pos + times[:, None] * vel
+    from engine.kernels.orbit import cw_flow
+
+    state = np.concatenate([pos, vel])
+    return np.array([cw_flow(n, float(tau), state)[:3] for tau in times])
+
+
+def cw_min_separation(n, pos, vel, held, drift_time, samples: int = 2000):
+    """Smallest distance (m) between a point drifting freely (CW) from ``pos``, ``vel`` and a
+    point held at ``held``, over ``drift_time`` s (sampled ``samples`` times), and when."""
+    times = np.linspace(0.0, drift_time, samples + 1)
+    dist = np.linalg.norm(cw_drift(n, pos, vel, times) - np.asarray(held, float), axis=1)
+    i = int(np.argmin(dist))
+    return float(dist[i]), float(times[i])
 
 
 def plot_omega(path: Path, runs: list[tuple[str, dict]], threshold: float) -> None:

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
-from . import (convergence, detumble, refinement, rod_study, sensitivity, spin_study,
-               wedge_study)
+from . import (convergence, detumble, reduce, refinement, rod_study, sensitivity,
+               spin_study, wedge_study)
 
 
 @dataclass(frozen=True)
@@ -59,6 +59,7 @@ REGISTRY: dict[str, Study] = {
                         sensitivity.run_montecarlo, _montecarlo_parser),
     "rod": Study("rod", rod_study.Options, rod_study.run, rod_study.add_parser),
     "detumble": Study("detumble", detumble.Options, detumble.run, detumble.add_parser),
+    "reduce": Study("reduce", reduce.Options, reduce.run, reduce.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),
 }

@@ -156,6 +156,14 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
         assert 0 < r["peak_bending_stress"] < r["stress_limit"]
         assert r["stress_ratio"] == pytest.approx(r["peak_bending_stress"] / 5e6)
         assert r["delta_v"] > 0 and r["peak_thrust"] <= 10.0 + 1e-12  # the saturation
+        # issue 25: the controller's honesty and the designer's figures are there; per-axis
+        # thrusters need at least the gimballed Delta-v (sum |F_i| >= |F|; the per-axis one
+        # is integrated over 50 ms frames, the gimballed one per step: 5 % covers that)
+        assert len(r["thrust_saturation"]) == 3
+        assert all(0.0 <= f <= 1.0 for f in r["thrust_saturation"])
+        assert r["delta_v_per_axis"] >= 0.95 * r["delta_v_gimballed"]
+        assert r["propellant_per_axis"] > 0 and r["peak_chaser_torque_com"] > 0
+        assert r["time_in_contact"] > 0 and r["min_separation"] > 0
     # L0 = I_axis (w0 + n): inertial, the recorded w being relative to the Hill frame
     n = engine.parse_scene(detumble.detumble_scene("detumble_upper_stage")).environment.orbit.n
     assert summary[1]["angular_momentum0"] / summary[0]["angular_momentum0"] == pytest.approx(
@@ -170,3 +178,60 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
 def test_bad_options_are_refused_with_exit_2(tmp_path, capsys, argv, text):
     assert main(["study", "detumble", "-o", str(tmp_path), *argv]) == 2
     assert text in capsys.readouterr().err
+
+
+def test_controller_honesty_figures_from_the_recorded_channels():
+    # synthetic record: 10 frames 0.1 s apart, contact in frames 3-7 (5 frames = 0.5 s);
+    # 40 samples, x thrust clipped at 30 of them (75 %); the chaser sits 12 mm outside its
+    # hold point along the offset's direction (+x) while in contact. A fraction over frames
+    # instead of samples, a sign error in the shortfall or contact counted outside the
+    # contact frames each change a number.
+    from studio.studies.detumble_analysis import controller_honesty
+    n = 10
+    contacts = np.zeros(n, int)
+    contacts[3:8] = 4
+    err = np.zeros((n, 3))
+    err[3:8, 0] = -0.012
+    d = {"time": np.arange(n) * 0.1, "n_contacts": contacts, "position_error": err,
+         "hold_offset": np.array([2.5, 0.0, 0.0]),
+         "samples": np.full(n, 40.0),
+         "saturated_force_samples": np.tile([30.0, 0.0, 2.0], (n, 1)),
+         "saturated_torque_samples": np.zeros((n, 3))}
+    out = controller_honesty(d)
+    assert out["thrust_saturation"] == pytest.approx([0.75, 0.0, 0.05])
+    assert out["torque_saturation"] == [0.0, 0.0, 0.0]
+    assert out["time_in_contact"] == pytest.approx(0.5)
+    assert out["hold_shortfall_in_contact"] == pytest.approx(0.012)
+
+
+def test_tolerance_scenes_tilt_tumble_and_offset_as_documented():
+    # issue 25 item 7, on the upper stage (spin about z, approach along +x, so the surface
+    # moves along y under the brush: e = z x x = +y). Tilt 20 deg: |w| kept, the spin axis
+    # turned 20 deg toward the brush (a w.x component |w| sin 20); tumble 0.3: w.e =
+    # 0.3 |w| / sqrt(1.09); offset 50 mm: hold point and start moved 50 mm along e only.
+    # A tilt about the approach axis (no change against the brush), a tumble that changes
+    # |w|, or an offset along the approach (a different interference) each fail.
+    base = detumble.detumble_scene("detumble_upper_stage")
+    w0 = np.asarray(next(b for b in base["bodies"] if b["name"] == "target")
+                    ["angular_velocity"])
+    wn = np.linalg.norm(w0)
+    axis = np.asarray(base["controllers"][0]["position"]) / np.linalg.norm(
+        base["controllers"][0]["position"])
+    e = np.cross(w0, axis) / np.linalg.norm(np.cross(w0, axis))
+    tilted = detumble.detumble_scene("detumble_upper_stage", tilt_deg=20.0)
+    w = np.asarray(next(b for b in tilted["bodies"] if b["name"] == "target")
+                   ["angular_velocity"])
+    assert np.linalg.norm(w) == pytest.approx(wn, rel=1e-12)
+    assert w @ axis == pytest.approx(wn * math.sin(math.radians(20)), rel=1e-9)
+    tumbling = detumble.detumble_scene("detumble_upper_stage", tumble=0.3)
+    w = np.asarray(next(b for b in tumbling["bodies"] if b["name"] == "target")
+                   ["angular_velocity"])
+    assert np.linalg.norm(w) == pytest.approx(wn, rel=1e-12)
+    assert w @ e == pytest.approx(0.3 * wn / math.sqrt(1.09), rel=1e-9)
+    off = detumble.detumble_scene("detumble_upper_stage", offset=0.05)
+    for get in (lambda s: s["controllers"][0]["position"],
+                lambda s: next(b for b in s["bodies"] if b["name"] == "chaser")["pose"]
+                ["position"]):
+        assert np.asarray(get(off)) - np.asarray(get(base)) == pytest.approx(0.05 * e,
+                                                                            abs=1e-12)
+    engine.parse_scene(tilted), engine.parse_scene(tumbling), engine.parse_scene(off)

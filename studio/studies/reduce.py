@@ -1,0 +1,452 @@
+"""``brush-studio study reduce``: fit the reduced brush law (engine.reduced_law) to short DEM
+runs of a brush design against a flat target surface, and validate it on held-out DEM runs
+(issue 25 items 1 and 3).
+
+The brush is a preset's first brush (default the detumble presets' brush), its base fixed in
+the world with the bristles along +z; the target is a plate of the preset's target material
+(the contact pair between it and the bristles is the preset's) whose lower face starts
+``GAP`` above the undeformed tips. Runs (each one Dask task, short):
+
+* presses (fit): the plate, moved kinematically, goes down at a constant ``rate`` to a
+  ``depth`` of interference and back up: (d, dd, F_n) samples of both branches;
+* slides (fit): pressed to a ``depth`` slowly, the plate slides along x at a constant
+  ``speed``: (F_n, v, F_t) samples of the steady slide;
+* impacts (held out, never fitted): a free plate hits the brush off-centre at a normal speed,
+  some with a tangential speed or a spin about the normal.
+
+The normal law is fitted on the presses, the tangential law on the slides
+(``studio.studies.reduce_fit``: scipy least squares, 95 % intervals). Each impact is then
+replayed with the fitted law by a rigid-body integration of the plate (scipy ``solve_ivp``:
+force at the patch centre, friction against the slip of the plate's point there, torsion
+against its spin; the plate's tilt during the short contact is neglected) and compared with
+its DEM run: peak normal force, normal Delta-v, Delta-omega, dissipated energy, the force
+history's RMS error. Outputs (``-o DIR``): ``law.json`` (the law file a scene references),
+``validation.json`` (per impact: DEM, reduced, relative errors), ``reduce_summary.json``,
+``outcomes.json``, ``runs/``.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from . import api
+from .api import ExecutionOptions
+
+GAP = 0.002                 # m: the plate's face above the undeformed tips at the start
+PLATE_T = 0.02              # m: plate thickness
+IMPACT_MASS = 5.0           # kg: the free plate of the held-out impacts
+IMPACT_OFFSET = 0.05        # m: the plate's centre off the patch centre along x (a lever)
+PLATE = "plate"
+
+
+# ----------------------------------------------------------------------------- scenes
+def _design(preset: str, rows=None, columns=None, n_nodes=None) -> dict:
+    """The brush (fixed base at the origin, bristles along +z), materials, contact pairs
+    and the target material of ``preset``."""
+    from studio import presets
+
+    scene = json.loads(presets.load_preset_or_file(preset).to_json())
+    if not scene["brushes"]:
+        raise ValueError(f"--preset {preset!r}: has no brush")
+    brush = dict(scene["brushes"][0])
+    brush.update(name="brush", base={"position": [0, 0, 0], "orientation": [1, 0, 0, 0]})
+    brush.pop("mount", None)
+    for key, value in (("rows", rows), ("columns", columns), ("n_nodes", n_nodes)):
+        if value is not None:
+            brush[key] = int(value)
+    bodies = [b for b in scene["bodies"] if b.get("collide", True)]
+    target_material = next((b["material"] for b in bodies if b["name"] == "target"),
+                           bodies[0]["material"] if bodies else brush["material"])
+    return {"brush": brush, "materials": scene["materials"],
+            "contact_pairs": scene.get("contact_pairs", []),
+            "target_material": target_material}
+
+
+def patch_size(brush: dict) -> tuple[float, float]:
+    """The brush footprint a x b (m): its grid's extent plus one tip diameter."""
+    a = (brush["columns"] - 1) * brush["pitch"][0] + 2 * brush["tip_radius"]
+    b = (brush["rows"] - 1) * brush["pitch"][1] + 2 * brush["tip_radius"]
+    return a, b
+
+
+def tip_plane(brush: dict) -> float:
+    return brush["bristle_length"] + brush["tip_radius"]
+
+
+def _plate(design: dict, extra_x: float) -> dict:
+    a, b = patch_size(design["brush"])
+    return {"type": "box", "size": [a + 2 * extra_x + 0.04, b + 0.04, PLATE_T]}
+
+
+def _line(t0, p0, t1, p1, n=8):
+    """Waypoints at constant speed from p0 at t0 to p1 at t1 (n intervals)."""
+    ts = np.linspace(t0, t1, n + 1)
+    ps = [list(np.asarray(p0) + (np.asarray(p1) - np.asarray(p0)) * (t - t0) / (t1 - t0))
+          for t in ts]
+    return list(ts), ps
+
+
+def _scene(design, name, plate_body, duration, record_interval) -> dict:
+    return {"name": name, "description": f"study reduce: {name}",
+            "materials": design["materials"], "contact_pairs": design["contact_pairs"],
+            "brushes": [design["brush"]], "bodies": [plate_body],
+            "run": {"duration": duration, "record_interval": record_interval,
+                    "channels": ["bodies", "energy", "contacts"]}}
+
+
+def press_scene(design, depth, rate) -> dict:
+    z0 = tip_plane(design["brush"]) + GAP + PLATE_T / 2
+    t1 = (GAP + depth) / rate
+    ts, ps = _line(0.0, [0, 0, z0], t1, [0, 0, z0 - GAP - depth])
+    ts2, ps2 = _line(t1, ps[-1], 2 * t1, [0, 0, z0])
+    body = {"name": PLATE, "material": design["target_material"], "shape": _plate(design, 0),
+            "pose": {"position": [0, 0, z0]},
+            "motion": {"type": "kinematic", "profile": {
+                "kind": "waypoints", "times": ts + ts2[1:], "positions": ps + ps2[1:]}}}
+    return _scene(design, f"press_d{depth * 1e3:g}_r{rate * 1e3:g}", body, 2 * t1,
+                  min(t1 / 60, 0.005))
+
+
+SLIDE_TIME = 0.5     # s of constant-speed slide
+APPROACH_RATE = 0.02  # m/s
+
+
+def slide_scene(design, depth, speed) -> dict:
+    z0 = tip_plane(design["brush"]) + GAP + PLATE_T / 2
+    t1 = (GAP + depth) / APPROACH_RATE
+    ts, ps = _line(0.0, [0, 0, z0], t1, [0, 0, z0 - GAP - depth])
+    # a short ramp to speed (Catmull-Rom between equally spaced points is linear inside)
+    ts2, ps2 = _line(t1 + 0.05, ps[-1], t1 + 0.05 + SLIDE_TIME,
+                     [speed * SLIDE_TIME, 0, z0 - GAP - depth], n=20)
+    travel = speed * SLIDE_TIME
+    body = {"name": PLATE, "material": design["target_material"],
+            "shape": _plate(design, travel), "pose": {"position": [0, 0, z0]},
+            "motion": {"type": "kinematic", "profile": {
+                "kind": "waypoints", "times": ts + ts2, "positions": ps + ps2}}}
+    return _scene(design, f"slide_d{depth * 1e3:g}_v{speed * 1e3:g}", body,
+                  t1 + 0.05 + SLIDE_TIME, 0.005)
+
+
+def box_inertia(m, size):
+    a, b, c = size
+    return [m * (b * b + c * c) / 12, m * (a * a + c * c) / 12, m * (a * a + b * b) / 12]
+
+
+def impact_scene(design, vn, vt=0.0, spin=0.0, duration=None) -> dict:
+    z0 = tip_plane(design["brush"]) + GAP + PLATE_T / 2
+    shape = _plate(design, IMPACT_OFFSET)
+    I = box_inertia(IMPACT_MASS, shape["size"])
+    body = {"name": PLATE, "material": design["target_material"], "shape": shape,
+            "pose": {"position": [IMPACT_OFFSET, 0, z0]}, "motion": {"type": "free"},
+            "mass_properties": {"mass": IMPACT_MASS,
+                                "inertia": [[I[0], 0, 0], [0, I[1], 0], [0, 0, I[2]]]},
+            "velocity": [vt, 0.0, -vn], "angular_velocity": [0.0, 0.0, spin]}
+    if duration is None:
+        duration = GAP / vn + 0.6
+    return _scene(design, f"impact_v{vn * 1e3:g}_t{vt * 1e3:g}_w{spin:g}", body, duration,
+                  0.002)
+
+
+# ----------------------------------------------------------------------------- task
+def _series(h5_path):
+    import engine
+
+    with engine.open_result(h5_path) as res:
+        out = {"time": np.asarray(res.time)}
+        for key in ("position", "velocity", "angular_velocity", "contact_force",
+                    "contact_torque"):
+            out[key] = np.asarray(res.series(f"bodies/{PLATE}/{key}"))
+        out["dissipated"] = np.asarray(res.series("energy/dissipated"))
+    return out
+
+
+def reduce_task(scene, h5_path: Path, params: dict) -> dict:
+    """Dask task: run one DEM scene; return its samples (presses, slides) or its impact
+    figures (JSON-able)."""
+    import engine
+
+    result = engine.run(engine.build(scene), output=h5_path, cancel=api.cancel_requested)
+    api.check_cancel()
+    s = _series(h5_path)
+    zt = params["tip_plane"]
+    face = s["position"][:, 2] - PLATE_T / 2
+    d = zt - face
+    out = {"status": result.status if result.status in ("completed", "stopped") else "failed",
+           "wall_s": result.summary.get("wall_s")}
+    kind = params["kind"]
+    if kind == "press":
+        out.update(d=d.tolist(), dd=(-s["velocity"][:, 2]).tolist(),
+                   fn=s["contact_force"][:, 2].tolist())
+    elif kind == "slide":
+        v = s["velocity"][:, 0]
+        steady = (np.abs(v - params["speed"]) < 0.02 * params["speed"]) & (d > 0)
+        out.update(fn=s["contact_force"][steady, 2].tolist(), v=v[steady].tolist(),
+                   ft=(-s["contact_force"][steady, 0]).tolist(), d=d[steady].tolist())
+    else:
+        out.update(impact_figures(s["time"], s["velocity"], s["angular_velocity"],
+                                  s["contact_force"][:, 2]))
+    return out
+
+
+def impact_figures(t, v, w, fn) -> dict:
+    """Delta-v, Delta-omega, peak F_n, dissipated kinetic energy and the F_n history of a
+    free plate's impact (the plate of :func:`impact_scene`)."""
+    return {"dv": (v[-1] - v[0]).tolist(), "dw": (w[-1] - w[0]).tolist(),
+            "peak_fn": float(np.max(fn)), "time": t.tolist(), "fn": fn.tolist(),
+            "v0": v[0].tolist(), "w0": w[0].tolist(), "v_end": v[-1].tolist(),
+            "w_end": w[-1].tolist()}
+
+
+# ----------------------------------------------------------------------------- reduced replay
+def replay_impact(law: dict, design: dict, scene: dict) -> dict:
+    """The impact of ``scene`` replayed with the reduced law (module docstring)."""
+    from scipy.integrate import solve_ivp
+
+    from engine.reduced_law import friction_coefficient, normal_force, torsion_radius
+
+    par = law["parameters"]
+    a, b = law["patch"]["size"]
+    rt = torsion_radius(a, b)
+    body = scene["bodies"][0]
+    m = body["mass_properties"]["mass"]
+    I = np.array([body["mass_properties"]["inertia"][i][i] for i in range(3)])
+    zt = tip_plane(design["brush"])
+    y0 = np.concatenate([body["pose"]["position"], body["velocity"],
+                         body["angular_velocity"]])
+    T = scene["run"]["duration"]
+
+    def loads(y):
+        c, v, w = y[:3], y[3:6], y[6:9]
+        r = np.array([-c[0], -c[1], -PLATE_T / 2])      # COM -> patch centre on the face
+        u = v + np.cross(w, r)
+        d = zt - (c[2] - PLATE_T / 2)
+        fn = float(normal_force(d, -u[2], par["k"], par["p"], par["c"], par["eta"]))
+        s = math.hypot(u[0], u[1])
+        F = np.array([0.0, 0.0, fn])
+        M = np.zeros(3)
+        if fn > 0:
+            if s > 0:
+                mu = float(friction_coefficient(fn, s, par["mu"], par["q"], par["v_s"]))
+                F[:2] = -mu * fn * u[:2] / s
+            ws = abs(w[2]) * rt
+            if ws > 0:
+                mu_t = float(friction_coefficient(fn, ws, par["mu"], par["q"], par["v_s"]))
+                M[2] = -math.copysign(mu_t * fn * rt, w[2])
+        return F, np.cross(r, F) + M
+
+    def rhs(t, y):
+        F, tau = loads(y)
+        return np.concatenate([y[3:6], F / m, tau / I])
+
+    sol = solve_ivp(rhs, (0.0, T), y0, method="LSODA", rtol=1e-8, atol=1e-10,
+                    max_step=5e-4, dense_output=True)
+    ts = np.linspace(0.0, T, max(int(T / 0.002), 2) + 1)
+    ys = sol.sol(ts)
+    fn = np.array([loads(ys[:, i])[0][2] for i in range(ts.size)])
+    return impact_figures(ts, ys[3:6].T, ys[6:9].T, fn)
+
+
+def kinetic(m, I, v, w) -> float:
+    return 0.5 * m * float(np.dot(v, v)) + 0.5 * float(np.dot(I, np.square(w)))
+
+
+def compare(dem: dict, red: dict, scene: dict) -> dict:
+    """Relative errors of the reduced replay against the DEM impact."""
+    body = scene["bodies"][0]
+    m = body["mass_properties"]["mass"]
+    I = np.array([body["mass_properties"]["inertia"][i][i] for i in range(3)])
+    e = {}
+    for name, x in (("dem", dem), ("reduced", red)):
+        e[name] = {"peak_fn": x["peak_fn"], "dv_normal": x["dv"][2], "dw": x["dw"],
+                   "dissipated": kinetic(m, I, x["v0"], x["w0"])
+                   - kinetic(m, I, x["v_end"], x["w_end"])}
+    rel = lambda a, b: abs(a - b) / max(abs(b), 1e-300)  # noqa: E731
+    dwd, dwr = np.asarray(e["dem"]["dw"]), np.asarray(e["reduced"]["dw"])
+    e["errors"] = {"peak_fn": rel(e["reduced"]["peak_fn"], e["dem"]["peak_fn"]),
+                   "dv_normal": rel(e["reduced"]["dv_normal"], e["dem"]["dv_normal"]),
+                   "dw": float(np.linalg.norm(dwr - dwd) / max(np.linalg.norm(dwd), 1e-300)),
+                   "dissipated": rel(e["reduced"]["dissipated"], e["dem"]["dissipated"])}
+    fd = np.interp(red["time"], dem["time"], dem["fn"])
+    e["errors"]["force_history_rms"] = float(np.sqrt(np.mean((np.asarray(red["fn"]) - fd)
+                                                             ** 2)) / max(dem["peak_fn"],
+                                                                          1e-300))
+    return e
+
+
+# ----------------------------------------------------------------------------- study
+def _floats(text: str, what: str, scale: float) -> list:
+    from .study_command import number_list
+
+    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
+    if not values or any(not math.isfinite(v) or v <= 0 for v in values):
+        raise ValueError(f"{what} {text!r}: numbers > 0")
+    return [v * scale for v in values]
+
+
+def build_specs(options: "Options", design: dict):
+    from .runner import RunSpec
+
+    zt = tip_plane(design["brush"])
+    task = "studio.studies.reduce:reduce_task"
+    specs = []
+    for depth in _floats(options.depths, "--depths", 1e-3):
+        for rate in _floats(options.rates, "--rates", 1e-3):
+            sc = press_scene(design, depth, rate)
+            specs.append(RunSpec(sc["name"], sc, {"kind": "press", "depth": depth,
+                                                  "rate": rate, "tip_plane": zt}, task))
+    for depth in _floats(options.slide_depths, "--slide-depths", 1e-3):
+        for speed in _floats(options.speeds, "--speeds", 1e-3):
+            sc = slide_scene(design, depth, speed)
+            specs.append(RunSpec(sc["name"], sc, {"kind": "slide", "depth": depth,
+                                                  "speed": speed, "tip_plane": zt}, task))
+    vt = options.impact_tangential * 1e-3
+    for vn in _floats(options.impact_speeds, "--impact-speeds", 1e-3):
+        for t_speed, spin in ((0.0, 0.0), (vt, 0.0), (0.0, options.impact_spin)):
+            if (t_speed, spin) != (0.0, 0.0) and vn != max(
+                    _floats(options.impact_speeds, "--impact-speeds", 1e-3)):
+                continue   # the oblique and spinning impacts at the fastest speed only
+            sc = impact_scene(design, vn, t_speed, spin)
+            specs.append(RunSpec(sc["name"], sc, {"kind": "impact", "vn": vn, "vt": t_speed,
+                                                  "spin": spin, "tip_plane": zt}, task))
+    return specs
+
+
+def fit_law(outcomes, design: dict) -> dict:
+    """The law dict (engine.reduced_law) fitted to the press and slide outcomes."""
+    from .reduce_fit import fit_normal, fit_tangent
+
+    presses = [o.summary for o in outcomes if o.ok and o.params["kind"] == "press"]
+    slides = [o.summary for o in outcomes if o.ok and o.params["kind"] == "slide"]
+    cat = lambda runs, k: np.concatenate([np.asarray(r[k], float) for r in runs])  # noqa
+    d, dd, fn = cat(presses, "d"), cat(presses, "dd"), cat(presses, "fn")
+    normal = fit_normal(d, dd, fn)
+    tangent = fit_tangent(cat(slides, "fn"), cat(slides, "v"), cat(slides, "ft"))
+    contact = d > 0
+    sv = cat(slides, "v")
+    params = {k: normal[k]["value"] for k in ("k", "p", "c", "eta")}
+    params.update({k: tangent[k]["value"] for k in ("mu", "q", "v_s")})
+    return {"form": "F_n = k d^p (u(dd) + c dd); F_t = mu (F_n/1 N)^q tanh(v/v_s) F_n; "
+                    "M = mu_eff(F_n, w r_t) F_n r_t (engine.reduced_law)",
+            "parameters": params,
+            "intervals": {k: v for k, v in {**normal, **tangent}.items()
+                          if isinstance(v, dict)},
+            "fit_rms": {"normal_N": normal["rms"], "tangent_N": tangent["rms"]},
+            "ranges": {"interference": [float(d[contact].min()), float(d[contact].max())],
+                       "rate": [float(dd[contact].min()), float(dd[contact].max())],
+                       "slip_speed": [float(sv.min()), float(sv.max())],
+                       "normal_force": [0.0, float(fn.max())]},
+            "patch": {"size": list(patch_size(design["brush"])), "normal": [0, 0, 1]},
+            "brush": {k: design["brush"][k] for k in ("material", "rows", "columns", "pitch",
+                                                       "bristle_length", "root_radius",
+                                                       "tip_radius", "n_nodes")},
+            "target_material": design["target_material"]}
+
+
+@dataclass
+class Options(ExecutionOptions):
+    """``brush-studio study reduce``."""
+
+    preset: str = "detumble_upper_stage"
+    depths: str = "10,20,30"           # press depths, mm
+    rates: str = "20,100"              # press rates, mm/s
+    slide_depths: str = "10,25"        # mm (the normal load of a slide)
+    speeds: str = "10,50"              # slide speeds, mm/s
+    impact_speeds: str = "50,150"      # held-out normal impact speeds, mm/s
+    impact_tangential: float = 50.0    # mm/s: the oblique held-out impact's tangential speed
+    impact_spin: float = 0.5           # rad/s: the spinning held-out impact's spin
+    rows: Optional[int] = None
+    columns: Optional[int] = None
+    n_nodes: Optional[int] = None
+
+
+def add_parser(study_subparsers) -> None:
+    from .study_command import set_command
+
+    p = study_subparsers.add_parser(
+        "reduce", help="fit a reduced brush law to short DEM runs (issue 25)",
+        description="Fit the reduced brush law (a compliant patch: Hunt-Crossley-like normal "
+                    "force, load- and speed-dependent friction, torsion from the patch size) "
+                    "to short DEM presses and slides of a preset's brush against a flat "
+                    "plate, with 95 %% confidence intervals, and validate it on held-out DEM "
+                    "impacts (peak force, Delta-v, Delta-omega, dissipated energy). Writes "
+                    "law.json and validation.json. See docs/mission.md.")
+    p.add_argument("--preset", default="detumble_upper_stage", metavar="NAME_OR_FILE",
+                   help="the scene whose first brush, materials and target material are "
+                        "used (default detumble_upper_stage)")
+    for flag, default, what in (("--depths", "10,20,30", "press depths, mm"),
+                                ("--rates", "20,100", "press rates, mm/s"),
+                                ("--slide-depths", "10,25", "slide interferences, mm"),
+                                ("--speeds", "10,50", "slide speeds, mm/s"),
+                                ("--impact-speeds", "50,150",
+                                 "held-out impact normal speeds, mm/s")):
+        p.add_argument(flag, default=default, help=f"{what} (default {default})")
+    p.add_argument("--impact-tangential", type=float, default=50.0, metavar="MM_PER_S",
+                   help="tangential speed of the oblique held-out impact (default 50)")
+    p.add_argument("--impact-spin", type=float, default=0.5, metavar="RAD_PER_S",
+                   help="spin about the normal of the spinning held-out impact (default 0.5)")
+    p.add_argument("--rows", type=int, default=None, help="brush rows (default: preset's)")
+    p.add_argument("--columns", type=int, default=None, help="bristles per row")
+    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
+                   metavar="N", help="nodes per bristle (default: the preset's)")
+    set_command(p, run, Options, default_output="study-reduce")
+
+
+def _run_study(options: Options, out: Path) -> int:
+    from engine.reduced_law import save_law
+
+    from .run_files import write_json_atomic
+    from .study_command import check_common_options, report_failures, run_study
+
+    problem = check_common_options(options)
+    design = None
+    if problem is None:
+        try:
+            design = _design(options.preset, options.rows, options.columns, options.n_nodes)
+            build_specs(options, design)      # checks the number lists
+        except (ValueError, KeyError, OSError) as exc:
+            problem = str(exc)
+    code, outcomes = run_study(lambda: build_specs(options, design), out, options,
+                               desc="reduce runs", problem=problem)
+    if code is not None:
+        return code
+    failed = report_failures(outcomes)
+    if failed:
+        return failed
+    law = fit_law(outcomes, design)
+    rows = []
+    specs = {s.run_id: s for s in build_specs(options, design)}
+    for o in outcomes:
+        if o.params["kind"] != "impact":
+            continue
+        scene = specs[o.run_id].scene
+        red = replay_impact(law, design, scene)
+        cmp_ = compare(o.summary, red, scene)
+        rows.append({"run_id": o.run_id, **{k: o.params[k] for k in ("vn", "vt", "spin")},
+                     **cmp_})
+    law["validation"] = [{"run_id": r["run_id"], **r["errors"]} for r in rows]
+    save_law(out / "law.json", law)
+    write_json_atomic(out / "validation.json", {"impacts": rows})
+    write_json_atomic(out / "reduce_summary.json",
+                      {"law": law, "runs": [{"run_id": o.run_id, "params": o.params,
+                                             "wall_s": o.wall_s} for o in outcomes]})
+    par, ci = law["parameters"], law["intervals"]
+    print("Reduced law (95 % intervals):")
+    for k in ("k", "p", "c", "eta", "mu", "q", "v_s"):
+        print(f"  {k:4s} = {par[k]:.4g}  [{ci[k]['ci95'][0]:.4g}, {ci[k]['ci95'][1]:.4g}]")
+    print(f"Held-out impacts (relative errors, reduced vs DEM):")
+    print(f"  {'run':34s} {'peak Fn':>8s} {'dv_n':>7s} {'dw':>7s} {'E diss':>7s} "
+          f"{'F(t) rms':>8s}")
+    for r in rows:
+        e = r["errors"]
+        print(f"  {r['run_id']:34s} {e['peak_fn']:8.1%} {e['dv_normal']:7.1%} {e['dw']:7.1%} "
+              f"{e['dissipated']:7.1%} {e['force_history_rms']:8.1%}")
+    print(f"Wrote {out}/law.json, validation.json, reduce_summary.json")
+    return 0
+
+
+run = api.study_run("reduce", _run_study)
