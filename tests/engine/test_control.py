@@ -219,8 +219,8 @@ def test_contact_channels_hold_contact_alone_and_actuators_their_own():
     """A controlled body with no contact at all: its recorded ``contact_force`` and
     ``contact_torque`` are exactly zero at every frame, while ``actuator_force`` /
     ``actuator_torque`` hold the controller's thrust (its applied force and torque turned
-    from the body's mesh axes into the world: here a body turned 90 degrees about z, so a
-    mix-up of the frames shows; the target's attitude is 30 degrees away, so there is a
+    from the body's mesh axes into the world: here a body turned 60 degrees about z whose
+    principal axes are not its mesh axes, so a mix-up of the frames shows; the target's attitude is 30 degrees away, so there is a
     torque too) and ``total_force`` is thrust plus the external force.
     Catches the contact channels recording the body's whole accumulated force (the chaser
     of detumble_upper_stage showed -10 N of thrust as "contact force")."""
@@ -233,7 +233,8 @@ def test_contact_channels_hold_contact_alone_and_actuators_their_own():
                 orientation=(math.cos(math.pi / 6), 0.0, 0.0, math.sin(math.pi / 6)),
                 force=tuple(f_ext), duration=2.0)
     sc = sc.model_copy(update={"run": sc.run.model_copy(update={"channels": ["bodies"]})})
-    res = engine.run(engine.build(sc))
+    system = engine.build(sc)
+    res = engine.run(system)
     with res.open() as r:
         contact = r.series("bodies/chaser/contact_force")
         contact_t = r.series("bodies/chaser/contact_torque")
@@ -250,8 +251,13 @@ def test_contact_channels_hold_contact_alone_and_actuators_their_own():
                                np.linalg.norm(applied, axis=1), rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(np.linalg.norm(thrust_t, axis=1),
                                np.linalg.norm(applied_t, axis=1), rtol=1e-12, atol=1e-15)
-    # in world axes: the box's mesh axes are its principal axes, so world = R(q) applied
-    from engine.layout import quat_to_matrix
-    world = np.einsum("fij,fj->fi", np.array([quat_to_matrix(qk) for qk in q]), applied)
+    # in world axes: the command is in the mesh axes, q_mesh = q_body q_bm (the principal
+    # frame is the engine's body frame)
+    from engine.kernels import control as C
+    from engine.layout import quat_mul, quat_to_matrix
+    qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
+    rot = np.array([quat_to_matrix(quat_mul(qk, qbm)) for qk in q])
+    world = np.einsum("fij,fj->fi", rot, applied)
     np.testing.assert_allclose(thrust, world, rtol=0, atol=1e-12 * np.abs(world).max())
-    np.testing.assert_allclose(total, thrust + f_ext, rtol=0, atol=1e-12)
+    # (frame 0 precedes the first force evaluation)
+    np.testing.assert_allclose(total[1:], thrust[1:] + f_ext, rtol=0, atol=1e-12)
