@@ -263,15 +263,16 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
 # ----------------------------------------------------------------------------- lists
 def _pair_list(cap: int, friction: bool) -> PairList:
     """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; tangential
-    history only where there is friction."""
+    history (the kept force and its spring's energy, ``contact_law.contact_with_history``)
+    only where there is friction."""
     from .kernels.contacts import NSLOT
     c = cap * NSLOT
     h = c if friction else 1
-    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
+    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 4)),
                     active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
                     s=np.zeros(c), t=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
-                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, 3)),
+                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, 4)),
                     xf=np.zeros((c, 4, 3)))
 
 
@@ -280,12 +281,12 @@ def _body_list(cap: int, friction: bool) -> BodyList:
     from .kernels.body_contacts import BSLOT
     c = cap * BSLOT
     h = c if friction else 1
-    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 3)),
+    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 4)),
                     active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
                     par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, 3)), xf=np.zeros((c, 4, 3)),
+                    ft2=np.zeros((h, 4)), xf=np.zeros((c, 4, 3)),
                     deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
 
 

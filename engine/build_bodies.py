@@ -287,7 +287,8 @@ def build_bodies(scene: Scene, mat_index: dict, orbit_n: float, warnings: list) 
         q0=np.asarray(kin[7], float), cursor=np.zeros(K, np.int64),
         pos_build=pos.copy(), q_build=a["q"].copy(), pos0=pos.copy(), **surfaces.tables(),
         ft_bb=np.zeros((K, K, 3)), scratch=np.zeros(3), scratch2=np.zeros((2, 3)),
-        mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)), ft_mesh=np.zeros((1, 1, 3)))
+        mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)), ft_mesh=np.zeros((1, 1, 3)),
+        f_contact=np.zeros((K, 3)), tq_contact=np.zeros((K, 3)))
     return BodyPart(bodies=bodies, names=[b.name for b in scene.bodies], geometry=geoms,
                     shape_to_body=shape_to_body, point_len=surfaces.point_len)
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from .build import System
-from .observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, bending_moments,
-                          mount_torques,
-                          controller_record, energies, root_reactions)
+from .observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, actuator_wrench,
+                          bending_moments, controller_record, energies, mount_torques,
+                          root_reactions)
 from .recorder import state_channels, state_frame
 from .state import ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY
 
@@ -26,11 +26,15 @@ def run_channels(system: System) -> tuple[dict, dict]:
         static["bristles/brush"] = system.bristle_brush
         static["bonds/nodes"] = np.stack([system.bonds.i, system.bonds.j], axis=1)
     if "bodies" in want:
+        controlled = _controlled_bodies(system)
         for k, name in enumerate(system.body_names):
             for key, n in (("position", 3), ("orientation", 4), ("velocity", 3),
                            ("angular_velocity", 3), ("contact_force", 3),
-                           ("contact_torque", 3)):
+                           ("contact_torque", 3), ("total_force", 3), ("total_torque", 3)):
                 ch[f"bodies/{name}/{key}"] = ((n,), "f8")
+            if k in controlled:
+                ch[f"bodies/{name}/actuator_force"] = ((3,), "f8")
+                ch[f"bodies/{name}/actuator_torque"] = ((3,), "f8")
             sl = slice(*_tri_range(system, k))
             tris = system.bodies.tris[sl]
             v0 = tris.min() if len(tris) else 0
@@ -65,6 +69,12 @@ def run_channels(system: System) -> tuple[dict, dict]:
     return ch, static
 
 
+def _controlled_bodies(system: System) -> set[int]:
+    """Indices of the bodies a controller acts on."""
+    idx = system.mission.ctl_index
+    return {int(idx[c, 0]) for c in range(idx.shape[0])}
+
+
 def _tri_range(system: System, k: int) -> tuple[int, int]:
     counts = [len(g.triangles) for g in system.body_geometry]
     start = sum(counts[:k])
@@ -84,8 +94,16 @@ def run_frame(system: System, channels: dict) -> dict:
             fr[f"bodies/{name}/orientation"] = bd.q[k]
             fr[f"bodies/{name}/velocity"] = bd.v[k]
             fr[f"bodies/{name}/angular_velocity"] = bd.w[k]
-            fr[f"bodies/{name}/contact_force"] = bd.f[k]
-            fr[f"bodies/{name}/contact_torque"] = bd.tq[k]
+            # contacts alone; the total adds mounted brushes' roots, orbit (gravity gradient,
+            # Hill frame), external loads and controllers (uniform gravity is not in it)
+            fr[f"bodies/{name}/contact_force"] = bd.f_contact[k]
+            fr[f"bodies/{name}/contact_torque"] = bd.tq_contact[k]
+            fr[f"bodies/{name}/total_force"] = bd.f[k]
+            fr[f"bodies/{name}/total_torque"] = bd.tq[k]
+            if f"bodies/{name}/actuator_force" in channels:
+                af, at = actuator_wrench(system, k)
+                fr[f"bodies/{name}/actuator_force"] = af
+                fr[f"bodies/{name}/actuator_torque"] = at
     if any(k.startswith("brushes/") for k in channels):
         reactions = root_reactions(system)
         for name, (f, t) in reactions.items():

@@ -171,6 +171,18 @@ def _mass_properties(body: spec_bodies.Body, mesh: trimesh.Trimesh, field: str):
     mp = body.mass_properties
     if mp is None:  # fixed / kinematic(hold): infinite or driven, the engine never divides
         return 0.0, np.zeros((3, 3)), np.zeros(3)
+    if mp.density is not None and isinstance(body.shape, spec_bodies.SphereShape):
+        # the exact sphere, as its contacts use (the icosphere is for display only: at the
+        # default 3 subdivisions it is 0.9 % light with 1.4 % less inertia)
+        r = float(body.shape.radius)
+        mass = float(mp.density) * 4.0 / 3.0 * math.pi * r ** 3
+        inertia = 0.4 * mass * r * r * np.eye(3)
+        com = np.zeros(3)
+        if mp.center_of_mass is not None:
+            d = np.asarray(mp.center_of_mass, dtype=np.float64)
+            inertia = inertia + mass * (d @ d * np.eye(3) - np.outer(d, d))
+            com = d
+        return mass, inertia, com
     if mp.density is not None:
         if not mesh.is_watertight:
             n_open = _n_open_edges(mesh)

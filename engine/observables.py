@@ -51,6 +51,25 @@ def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
     return out
 
 
+def actuator_wrench(system: System, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The force and torque (world axes, N and N m) that body k's controllers applied at the
+    last force evaluation: their held, clipped commands (``applied_force``/``applied_torque``,
+    mesh axes) turned into the world as ``apply_controllers`` does. Zero without one."""
+    from .kernels import control as C
+    from .kernels.rotations import qmul, qrot
+    force = np.zeros(3)
+    torque = np.zeros(3)
+    ms, q = system.mission, system.bodies.q
+    for c in range(ms.ctl_index.shape[0]):
+        if int(ms.ctl_index[c, 0]) != k:
+            continue
+        cp, cs = ms.ctl_par[c], ms.ctl_state[c]
+        m = qmul(q[k, 0], q[k, 1], q[k, 2], q[k, 3], *cp[C.P_QBM:C.P_QBM + 4])
+        force += qrot(*m, *cs[C.S_APP_F:C.S_APP_F + 3])
+        torque += qrot(*m, *cs[C.S_APP_T:C.S_APP_T + 3])
+    return force, torque
+
+
 def energies(system: System) -> dict[str, float]:
     """Energies of the current state (J). Bond energy is that of the last force evaluation."""
     nd, bd = system.nodes, system.bodies

@@ -18,7 +18,8 @@ class BoxShape(_Model):
 
 
 class SphereShape(_Model):
-    """Sphere: contacts use the exact sphere; the mesh (icosphere) is for display and mass."""
+    """Sphere: contacts and mass properties (from a density) use the exact sphere; the mesh
+    (icosphere) is for display."""
 
     type: Literal["sphere"] = "sphere"
     radius: PositiveFloat

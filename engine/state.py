@@ -28,7 +28,10 @@ Bodies = namedtuple("Bodies", [
     # mesh-mesh contacts (engine.kernels.mesh_contact): first contact point of each body (K + 1),
     # the points (body frames), per-pair point stiffness (K, K; 0 = the pair does not touch)
     # and length, tangential history per (point, other body)
-    "point_start", "points", "mesh_kn", "mesh_len", "ft_mesh"])
+    "point_start", "points", "mesh_kn", "mesh_len", "ft_mesh",
+    # the force and torque of the body's contacts alone (bristle-body, body-body, mesh-mesh)
+    # at the last evaluation: ``f``/``tq`` also hold mounted roots, orbit, loads, controllers
+    "f_contact", "tq_contact"])
 
 PairList = namedtuple("PairList", [
     "a", "b", "ft", "active", "fc", "cp", "s", "t", "energy", "diss", "ratio", "n",

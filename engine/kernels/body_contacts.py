@@ -317,6 +317,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
     for slot_k in range(BSLOT):
         slot = c * BSLOT + slot_k
         active[slot] = 0
+        diss[slot] = 0.0
         dweight = 0.0
         inside = False
         # an edge contact's fade towards the faces' planes (``edge_face_fade``): chi, and its
@@ -326,7 +327,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         cgy = 0.0
         cgz = 0.0
         if slot_k == 1 and seg_has_next[sg]:
-            clear_history(ft, slot, friction)
+            clear_history(ft, slot, friction, diss)
             continue
         weight = 1.0
         if sphere_r[k] > 0.0:
@@ -349,7 +350,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             d = math.sqrt(dx * dx + dy * dy + dz * dz)
             ov = r + sphere_r[k] - d
             if ov <= 0.0 or weight <= 0.0:
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             if d > 1e-12 * sphere_r[k]:
                 nx = dx / d
@@ -396,7 +397,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                     weight *= chi
                     dweight *= chi
             if tri < 0 or weight <= 0.0:
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             r = rad[i0] + s * (rad[i1] - rad[i0])
             psx = l0[0] + s * (l1[0] - l0[0])
@@ -434,7 +435,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                     else:
                         nlx, nly, nlz = 0.0, 0.0, 1.0
             if ov <= 0.0:
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             # contact point: middle of the overlap, between the body surface and the capsule's
             clx = ptx + 0.5 * (gx - nlx * r)
@@ -697,6 +698,9 @@ def scatter_bristle_body(nd, bn, bl, bd, stats):
     worst = 0.0
     worst_c = -1
     for q in range(n_cand * BSLOT):
+        # an inactive slot's diss holds what its forgotten tangential spring released
+        # (``clear_history``), an active one's the step's dashpot and slip work
+        e_dis += diss[q]
         if active[q] == 0:
             continue
         c = q
@@ -719,7 +723,6 @@ def scatter_bristle_body(nd, bn, bl, bd, stats):
             bf[k, ax] += xf[c, 2, ax]
             btq[k, ax] += xf[c, 3, ax]
         e_sto += energy[c]
-        e_dis += diss[c]
         if overlap_ratio[c] > worst:
             worst = overlap_ratio[c]
             worst_c = c

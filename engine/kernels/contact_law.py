@@ -1,9 +1,12 @@
-"""The Cundall-Strack contact law (seed eqs. 3.5-3.9), shared by every contact type.
+"""The Cundall-Strack contact law (seed eqs. 3.5-3.9), shared by every contact type
+(bristle-bristle, bristle-body, body-body, mesh-mesh).
 
 Normal: linear spring ``k_n * overlap`` plus an optional viscous term from a coefficient of
-restitution; never attractive. Tangential: an incremental spring kept per contact across steps
-(contact history), rotated into the current tangent plane each step, capped by Coulomb's
-``|F_t| <= |F_n| tan(phi)`` (seed eq. 3.8).
+restitution, the sum clipped at zero (never attractive). Tangential: an incremental spring
+kept per contact across steps (contact history), rotated into the current tangent plane each
+step, capped by Coulomb's ``|F_t| <= mu F_n`` on the total normal force F_n (spring + dashpot,
+clipped; seed eq. 3.8, mu = tan(phi)). :func:`contact_force` states the law and its energy
+exactly.
 """
 from __future__ import annotations
 
@@ -78,6 +81,22 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
     ``(Fx, Fy, Fz, ftx, fty, ftz, dissipated, stored)``: the total force on A, the new
     tangential force to keep, the energy dissipated this step and the elastic energy stored.
 
+    The law (seed eqs. 3.5-3.9), exactly as computed here:
+
+    * normal: ``F_n = max(k_n overlap - c v_n, 0)`` with ``c = 2 zeta sqrt(k_n m_eff)``
+      (zeta = 0 without damping): spring plus dashpot, clipped at zero, never attractive;
+    * tangential: the kept force turned into the current tangent plane (same magnitude),
+      then the trial ``F_t* = F_t,old - k_t v_t dt`` (v_t: the tangential part of v);
+      Coulomb's cap on the TOTAL normal force, ``|F_t| <= mu F_n`` (seed eq. 3.8): the
+      applied force is the trial returned to the cone, ``F_t = F_t* min(1, mu F_n / |F_t*|)``,
+      so friction vanishes whenever the normal force does (the dashpot's clipped rebound);
+    * dissipated: the dashpot's work ``-f_d v_n dt`` plus the slip work
+      ``(F_t,old + F_t) . (F_t* - F_t) / (2 k_t)``: the work the tangential force does over
+      the step (its mean over the step times the displacement, as the leapfrog's kicks apply
+      it) less the change of the spring's energy ``|F_t|^2 / (2 k_t)``, so the energy books
+      close; zero while the contact sticks;
+    * stored: ``k_n overlap^2 / 2 + |F_t|^2 / (2 k_t)``.
+
     With ``friction == SLIP_FROZEN`` the kept force is the trial force, never capped: the
     applied tangential force is the trial's return to Coulomb's cone, so within a
     quasi-static increment it depends on the net tangential displacement only, not on the
@@ -113,25 +132,30 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
             ftx *= s
             fty *= s
             ftz *= s
+        gx = ftx
+        gy = fty
+        gz = ftz
         tvx = vx - vn * nx
         tvy = vy - vn * ny
         tvz = vz - vn * nz
         ftx -= kt * tvx * dt
         fty -= kt * tvy * dt
         ftz -= kt * tvz * dt
-        cap = mu * fn
+        cap = mu * fnt  # the total normal force (spring + dashpot, >= 0): seed eq. 3.8
         mag = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
         ax = ftx
         ay = fty
         az = ftz
         if mag > cap:
-            # slip: the spring's excess is dissipated by sliding (seed eq. 3.8)
+            # slip: the trial returned to Coulomb's cone (to zero where F_n = 0)
             s = cap / mag
             ax *= s
             ay *= s
             az *= s
             if friction != SLIP_FROZEN:
-                diss += cap * (mag - cap) / kt
+                # the slip work over the step (docstring), >= 0 for a step's slip
+                diss += ((gx + ax) * (ftx - ax) + (gy + ay) * (fty - ay)
+                         + (gz + az) * (ftz - az)) / (2.0 * kt)
                 ftx = ax
                 fty = ay
                 ftz = az
@@ -157,24 +181,34 @@ def smoothstep(u):
 
 
 @njit(cache=True, inline="always")
-def clear_history(ft, slot, friction):
+def clear_history(ft, slot, friction, diss):
     """A contact slot that is not touching forgets its tangential spring, except within a
     quasi-static increment (``SLIP_FROZEN``): there the kept spring is the trial of the net
     tangential displacement since the last commit, and a contact that lets go during the
     increment's move and touches again in its relaxation keeps it (else its friction would
     follow only the slide since it touched again: the first millimetre of the wedge study,
-    docs/accuracy.md). The commit's step forgets it if the contact is still open then."""
+    docs/accuracy.md). The commit's step forgets it if the contact is still open then.
+
+    ``diss[slot]`` gets the energy the forgotten spring still held (``ft[slot, 3]``, its
+    ``|F_t|^2 / (2 k_t)`` when last computed): a contact handed over to a neighbouring
+    segment, or dropped while its spring is loaded, releases it as slip (0 otherwise)."""
     if friction == SLIP_EACH_STEP:
+        diss[slot] = ft[slot, 3]
         ft[slot, 0] = 0.0
         ft[slot, 1] = 0.0
         ft[slot, 2] = 0.0
+        ft[slot, 3] = 0.0
+    else:
+        diss[slot] = 0.0
 
 
 @njit(cache=True, inline="always")
 def contact_with_history(ft, slot, friction, nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu,
                          zeta, meff, dt):
-    """``contact_force`` reading and updating the tangential history kept in ``ft[slot]``.
-    Returns (Fx, Fy, Fz, dissipated, stored)."""
+    """``contact_force`` reading and updating the tangential history kept in ``ft[slot]``
+    (columns 0-2: the kept force; 3: the energy of the applied tangential spring, which
+    ``clear_history`` books when the slot lets go). Returns (Fx, Fy, Fz, dissipated,
+    stored)."""
     if friction:
         f0 = ft[slot, 0]
         f1 = ft[slot, 1]
@@ -189,4 +223,5 @@ def contact_with_history(ft, slot, friction, nx, ny, nz, overlap, vx, vy, vz, kn
         ft[slot, 0] = f0
         ft[slot, 1] = f1
         ft[slot, 2] = f2
+        ft[slot, 3] = sto - 0.5 * (kn * overlap) * overlap
     return Fx, Fy, Fz, dis, sto

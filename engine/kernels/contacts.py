@@ -153,7 +153,7 @@ def carry_history(old_a, old_b, old_ft, n_old, new_a, new_b, new_ft, n_new, ns, 
             i += 1
         found = i < n_old and old_a[i] * ns + old_b[i] == key
         for m in range(nslot):
-            for c in range(3):
+            for c in range(new_ft.shape[1]):
                 new_ft[k * nslot + m, c] = old_ft[i * nslot + m, c] if found else 0.0
 
 
@@ -348,23 +348,24 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
     if gx * gx + gy * gy + gz * gz >= reach * reach:
         for k in range(NSLOT):
             active[base + k] = 0
-            clear_history(ft, base + k, friction)
+            clear_history(ft, base + k, friction, diss)
         xf[base + 4, :, :] = 0.0
         return
     for k in range(NSLOT):
         slot = base + k
+        diss[slot] = 0.0
         if k == 0 or k == 2:
             # a node of segment a against segment b
             if k == 2 and seg_has_next[a]:
                 active[slot] = 0
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             first, second = a, b
             s = 0.0 if k == 0 else 1.0
         elif k == 1 or k == 3:
             if k == 3 and seg_has_next[b]:
                 active[slot] = 0
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             first, second = b, a
             s = 0.0 if k == 1 else 1.0
@@ -385,7 +386,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             if ovb + rad[node] <= 0.0 or not best_of_neighbours(
                     x, rad, bi, bj, bond_prev, bond_next, second, ovb, px_, py_, pz_):
                 active[slot] = 0
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 continue
             qx_ = x[j0, 0] + t * (x[j1, 0] - x[j0, 0])
             qy_ = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
@@ -409,7 +410,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
                       * smoothstep(min(t, 1.0 - t) / CROSS_END))
             if weight <= 0.0:
                 active[slot] = 0
-                clear_history(ft, slot, friction)
+                clear_history(ft, slot, friction, diss)
                 xf[slot, :, :] = 0.0
                 continue
             px_ = x[i0, 0] + s * d1x
@@ -427,7 +428,7 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         ov = ra + rb - d
         if ov <= 0.0:
             active[slot] = 0
-            clear_history(ft, slot, friction)
+            clear_history(ft, slot, friction, diss)
             continue
         if d > 1e-9 * (ra + rb):
             nx = dx / d
@@ -473,9 +474,10 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
             dt)
         active[slot] = 1
         if k == 4:
+            # (the stored energy from the law is already w 1/2 kn ov^2 plus the tangential
+            # spring's; overriding it by the normal part alone hid the spring's energy)
             crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov,
                                    normal_stiffness(E[m1], ra, E[m2], rb), xf[slot])
-            sto = weight * 0.5 * normal_stiffness(E[m1], ra, E[m2], rb) * ov * ov
         if first == a and not (k == 1 or k == 3):
             fc[slot, 0] = Fx
             fc[slot, 1] = Fy
@@ -553,6 +555,9 @@ def scatter_bristle_bristle(nd, bn, pl, stats):
     worst = 0.0
     worst_p = -1
     for q in range(n_pairs * NSLOT):
+        # an inactive slot's diss holds what its forgotten tangential spring released
+        # (``clear_history``), an active one's the step's dashpot and slip work
+        e_dis += diss[q]
         if active[q] == 0:
             continue
         p = q
@@ -570,7 +575,6 @@ def scatter_bristle_bristle(nd, bn, pl, stats):
                 f[bi[b], c] += xf[q, 2, c]
                 f[bj[b], c] += xf[q, 3, c]
         e_sto += energy[p]
-        e_dis += diss[p]
         if overlap_ratio[p] > worst:
             worst = overlap_ratio[p]
             worst_p = p

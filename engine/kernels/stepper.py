@@ -416,6 +416,10 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
     if timed:
         c7 = _clock()
         stage_time[SLOT_BODY_BODY] += c7 - c6
+    if fl.rigid_bodies or fl.bristle_body or fl.mounted_roots:
+        # what the bodies' contacts alone put on them (the recorded contact force)
+        bd.f_contact[:] = bd.f
+        bd.tq_contact[:] = bd.tq
     if fl.mounted_roots:
         roots_to_bodies(nd.x, nd.f, nd.t, rt.node, rt.body, bd.pos, bd.f, bd.tq)
     if fl.orbit:

@@ -213,3 +213,51 @@ def test_without_release_below_nothing_changes():
     assert np.all(never["controllers/hold/released"] == 0.0)
     for key, val in plain.items():
         assert np.array_equal(val, never[key]), key
+
+
+def test_contact_channels_hold_contact_alone_and_actuators_their_own():
+    """A controlled body with no contact at all: its recorded ``contact_force`` and
+    ``contact_torque`` are exactly zero at every frame, while ``actuator_force`` /
+    ``actuator_torque`` hold the controller's thrust (its applied force and torque turned
+    from the body's mesh axes into the world: here a body turned 60 degrees about z whose
+    principal axes are not its mesh axes, so a mix-up of the frames shows; the target's attitude is 30 degrees away, so there is a
+    torque too) and ``total_force`` is thrust plus the external force.
+    Catches the contact channels recording the body's whole accumulated force (the chaser
+    of detumble_upper_stage showed -10 N of thrust as "contact force")."""
+    s = math.sqrt(0.5)
+    f_ext = np.array([0.05, -0.02, 0.01])
+    sc = _scene({"position": [1.0, -0.5, 0.3], "orientation": [s, 0.0, 0.0, s],
+                 "sample_interval": 0.1,
+                 "position_gains": {"proportional": 1.0, "derivative": 2.0},
+                 "attitude_gains": {"proportional": 0.5, "derivative": 1.0}},
+                orientation=(math.cos(math.pi / 6), 0.0, 0.0, math.sin(math.pi / 6)),
+                force=tuple(f_ext), duration=2.0)
+    sc = sc.model_copy(update={"run": sc.run.model_copy(update={"channels": ["bodies"]})})
+    system = engine.build(sc)
+    res = engine.run(system)
+    with res.open() as r:
+        contact = r.series("bodies/chaser/contact_force")
+        contact_t = r.series("bodies/chaser/contact_torque")
+        thrust = r.series("bodies/chaser/actuator_force")
+        thrust_t = r.series("bodies/chaser/actuator_torque")
+        total = r.series("bodies/chaser/total_force")
+        applied = r.series("controllers/hold/applied_force")
+        applied_t = r.series("controllers/hold/applied_torque")
+        q = r.series("bodies/chaser/orientation")
+    assert np.all(contact == 0.0) and np.all(contact_t == 0.0)  # nothing touches: exactly 0
+    assert np.abs(thrust[1:]).max() > 0.1 and np.abs(thrust_t[1:]).max() > 1e-3
+    # same magnitudes as the controller's own record (rotation keeps lengths: rounding only)
+    np.testing.assert_allclose(np.linalg.norm(thrust, axis=1),
+                               np.linalg.norm(applied, axis=1), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(thrust_t, axis=1),
+                               np.linalg.norm(applied_t, axis=1), rtol=1e-12, atol=1e-15)
+    # in world axes: the command is in the mesh axes, q_mesh = q_body q_bm (the principal
+    # frame is the engine's body frame)
+    from engine.kernels import control as C
+    from engine.layout import quat_mul, quat_to_matrix
+    qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
+    rot = np.array([quat_to_matrix(quat_mul(qk, qbm)) for qk in q])
+    world = np.einsum("fij,fj->fi", rot, applied)
+    np.testing.assert_allclose(thrust, world, rtol=0, atol=1e-12 * np.abs(world).max())
+    # (frame 0 precedes the first force evaluation)
+    np.testing.assert_allclose(total[1:], thrust[1:] + f_ext, rtol=0, atol=1e-12)

@@ -1,0 +1,92 @@
+"""The energy books close with friction and damping at many contacts: a free PLA sphere into a
+frictional 5 x 5 silicone brush mounted on a free PLA plate (issue 22's scene). Reference: the
+conservation law itself, ``total + dissipated - external_work`` = the initial energy (no
+external work here: no gravity, no loads, no driven body), up to the leapfrog's O(dt^2) error.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+import engine
+
+SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
+PLA = {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36, "density": 1250.0}
+FIGURES: dict[str, float] = {}
+DURATION = 0.03  # s: the sphere hits at 1 ms, bounces off by about 10 ms; the brush rings on
+
+
+def _scene(restitution: float) -> engine.Scene:
+    return engine.parse_scene({
+        "materials": {"silicone": SILICONE, "pla": PLA},
+        "contact_pairs": [
+            {"materials": ["silicone", "silicone"], "friction_angle": 0.768,
+             "restitution": restitution},
+            {"materials": ["silicone", "pla"], "friction_angle": 0.419,
+             "restitution": restitution}],
+        "brushes": [{"name": "b", "material": "silicone", "rows": 5, "columns": 5,
+                     "pitch": [0.0025, 0.0025], "bristle_length": 0.02, "root_radius": 0.001,
+                     "tip_radius": 0.0005, "n_nodes": 8, "mount": "plate",
+                     "base": {"position": [0.0, 0.0, 0.001]}}],
+        "bodies": [
+            {"name": "plate", "material": "pla",
+             "shape": {"type": "box", "size": [0.02, 0.02, 0.002]},
+             "mass_properties": {"density": 1250.0}, "motion": {"type": "free"}},
+            {"name": "ball", "material": "pla", "shape": {"type": "sphere", "radius": 0.006},
+             "mass_properties": {"density": 1250.0},
+             "pose": {"position": [0.0017, 0.0009, 0.0285]}, "motion": {"type": "free"},
+             "velocity": [0.1, 0.0, -0.5]}],
+        "environment": {"gravity": [0.0, 0.0, 0.0]},
+        "run": {"duration": DURATION, "record_interval": 0.0005,
+                "channels": ["energy", "contacts"]}})
+
+
+@functools.lru_cache(maxsize=None)
+def balance(restitution: float, dt_factor: float) -> tuple[float, float, int, int]:
+    """(largest |total + dissipated - external work - E0| / E0 over the run, dissipated / E0
+    at the end, most bristle-bristle and bristle-body contacts at once)."""
+    system = engine.build(_scene(restitution))
+    system.dt *= dt_factor
+    result = engine.run(system)
+    with result.open() as res:
+        total = res.series("energy/total")
+        books = total + res.series("energy/dissipated") - res.series("energy/external_work")
+        diss = res.series("energy/dissipated")[-1]
+        n_bb = int(res.series("contacts/bristle_bristle").max())
+        n_body = int(res.series("contacts/bristle_body").max())
+    return (float(np.abs(books / total[0] - 1.0).max()), float(diss / total[0]), n_bb,
+            n_body)
+
+
+# (bound at the automatic dt, bound on err(dt/4) / err(dt)) per restitution:
+# * elastic contacts with friction: 0.2 % is the issue's bound (measured 0.0049 %, and
+#   0.0006 % at dt/4: the leapfrog's O(dt^2));
+# * damped contacts (e = 0.5) with friction: the dashpot's work is booked with the force at
+#   the step's end and the half-step velocity, an O(dt) error of the books (measured 0.259 %,
+#   0.135 % at dt/2, 0.062 % at dt/4): 0.3 % and a first-order decrease (1/4, with room).
+BOUNDS = {1.0: (0.002, 0.5), 0.5: (0.003, 0.35)}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("restitution", [1.0, 0.5], ids=["elastic", "damped"])
+def test_frictional_multi_contact_impact_books_close(restitution):
+    """The books at the automatic dt within the bound above, and converging at dt/4. Bugs
+    caught (the issue measured -2.98 % on such a scene): the tangential spring's energy of
+    the crossing contacts left out of the stored energy, a spring forgotten when a contact
+    hands over to the next segment without booking what it held, slip work taken at the
+    capped force alone instead of the force's mean over the step. Measured before the fix
+    (``benchmarks/contact_law_figures.py --books`` on the previous engine): elastic 0.40 %
+    at dt, 0.15 % at dt/4 (fails here); damped 0.088 % at dt, 0.028 % at dt/2 and dt/4, an
+    error that no longer shrinks with dt (a spring dropped without booking), which this
+    test's first-order bound does not catch: it guards the damped books from growing."""
+    bound, shrink = BOUNDS[restitution]
+    err, diss, n_bb, n_body = balance(restitution, 1.0)
+    err_fine, _, _, _ = balance(restitution, 0.25)
+    FIGURES[f"books, e={restitution}: max |error| / E0 at dt"] = err
+    FIGURES[f"books, e={restitution}: max |error| / E0 at dt/4"] = err_fine
+    assert n_bb > 0 and n_body > 0, "bristles must touch each other and the sphere"
+    assert diss > 0.01, "friction must dissipate a real share of the energy"
+    assert err < bound, f"books off by {err:.3%} of the initial energy"
+    assert err_fine < shrink * err + 1e-5, (err, err_fine)  # converging with dt
