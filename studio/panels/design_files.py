@@ -111,6 +111,7 @@ class DesignFiles:
             self._set_note(self.md_preset, "; ".join(str(p) for p in exc.problems))
             return
         self.set_design(scene)
+        self.mark_loaded(f"preset {name!r} was loaded")
         if name in self.dd_preset.options:
             self.dd_preset.value = name
         self._set_note(self.md_preset, f"loaded preset {name!r}")
@@ -126,6 +127,7 @@ class DesignFiles:
                            "; ".join(str(p) for p in exc.problems))
             return
         self.set_design(scene)
+        self.mark_loaded(f"{up.name} was loaded")
         self._set_note(self.md_preset, f"loaded {up.name}")
 
     def design_json(self) -> str:
@@ -153,3 +155,4 @@ class DesignFiles:
         name = _safe_name(self.scene.get("name", "scene")) + ".json"
         event.client.send_file_download(name, self.design_json().encode(),
                                         save_immediately=True)
+        self.mark_loaded(f"it was saved as {name}")
