@@ -38,6 +38,7 @@ from .console import print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from .panels.common import STREAM_HZ
 from .panels.result_frames import ResultFrames  # noqa: F401  (the studio's public name)
+from .page_script import send_page_script
 from .panels.design_history import draft_path, new_draft_id
 from .session import Session
 from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
@@ -115,6 +116,7 @@ class Studio:
             session.restore_draft(draft[1])
         if self.data_dir is not None:
             session.attach_draft(draft_id)
+        send_page_script(client)
         session._on_connect(client)
 
     def _on_disconnect(self, client) -> None:

@@ -94,6 +94,12 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
     # ----------------------------------------------------------------- GUI
     def _build_gui(self) -> None:
         gui = self.server.gui
+        # The control panel docked at the left edge: the 3D view is inset beside it (and
+        # beside the plots docked at the right) instead of lying under a floating panel
+        # that covered its middle once the plots docked (issue 29, item 4).
+        main_panel = getattr(gui, "main_panel", None)
+        if main_panel is not None:
+            main_panel.dock_left()
         who = f" · session {self.client_id}" if self.client_id is not None else ""
         self.md_title = gui.add_markdown(f"**Brush Studio**{who}")
         self.md_summary = gui.add_markdown("")

@@ -46,6 +46,10 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
                 self.up_json.on_upload(self._on_upload_json)
                 self.bt_download_json = gui.add_button("Download design as JSON")
                 self.bt_download_json.on_click(self._on_download_json)
+                self.bt_download_stl = gui.add_button(
+                    "Download brush geometry (STL)",
+                    hint="the bristles at rest, millimetres, for CAD")
+                self.bt_download_stl.on_click(self._on_download_stl)
                 self.bt_share = gui.add_button("Share this design (link)")
                 self.bt_share.on_click(self._on_share)
                 self.md_preset = gui.add_markdown("", visible=False)

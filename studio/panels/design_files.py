@@ -92,8 +92,8 @@ class DesignFiles:
                              f"has edits since it was loaded. Loading preset "
                              f"**{_md_escape(name)}** replaces them (*Download design as "
                              f"JSON* keeps a copy).")
+            keep = gui.add_button("Keep editing")  # (first: the button Enter presses)
             discard = gui.add_button(f"Discard edits and load {name}", color="red")
-            keep = gui.add_button("Keep editing")
 
             def _discard(_event) -> None:
                 modal.close()
@@ -156,3 +156,17 @@ class DesignFiles:
         event.client.send_file_download(name, self.design_json().encode(),
                                         save_immediately=True)
         self.mark_loaded(f"it was saved as {name}")
+
+    def _on_download_stl(self, event) -> None:
+        """The designed brush as STL (``studio.export.brush_stl``), named after the design."""
+        if event.client is None:
+            return
+        from ..export import brush_stl
+
+        try:
+            data = brush_stl(self.scene)
+        except ValueError as exc:
+            self._set_note(self.md_preset, str(exc))
+            return
+        event.client.send_file_download(_safe_name(self.scene.get("name", "scene")) + ".stl",
+                                        data, save_immediately=True)
