@@ -22,6 +22,7 @@ from . import ui_guides as ug
 from . import ui_scene as us
 from . import ui_view as uv
 from .panels.common import POLL_S, STUDIES_POLL_S
+from .panels.compare import ComparePanel
 from .panels.design import DesignPanel
 from .panels.result_frames import ResultFrames
 from .panels.results import ResultsPanel
@@ -29,7 +30,7 @@ from .panels.run import RunPanel
 from .panels.studies import StudiesPanel
 
 
-class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
+class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
     """One tab's studio. ``target``: a viser ClientHandle (or the ViserServer: shared by every
     tab); ``jobs``: the shared ``studio.jobs.JobManager`` (or None: designing only);
     ``scene``: the design it opens on."""
@@ -176,6 +177,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                               "bristles": len(o.items), "message": str(o)}
                              for o in self.overlaps],
                 "studies": self.studies.state() if self.studies is not None else None,
+                "compare": self.compare_state(),
                 "scene": self.scene,
             }
 

@@ -51,6 +51,7 @@ class ResultsPanel:
             self.bt_export.on_click(self._on_export_dialog)
             self.bt_design = gui.add_button("Back to the design view")
             self.bt_design.on_click(lambda e: self.set_mode("design"))
+            self._build_compare_gui(gui)
             self.plots: dict[str, Any] = {}
             self.figures: dict[str, Any] = {}
             self.legend: Optional[dict] = None
@@ -136,6 +137,7 @@ class ResultsPanel:
             self.cb_play.disabled = n < 2
             self.bt_download_h5.disabled = False
             self.bt_export.disabled = False
+            self.bt_compare_add.disabled = False
             info = self.jobs.get(job_id)
             t_end = float(frames.time[-1]) if n else 0.0
             self.md_result.content = (

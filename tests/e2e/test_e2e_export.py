@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 import zipfile
 
 import numpy as np
+import pytest
 
 from conftest import click, run_to_playback, wait_text
 
@@ -147,3 +148,45 @@ def _check_view_is_clear(page, studio) -> None:
 def _write(path, data: bytes):
     path.write_bytes(data)
     return path
+
+
+def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
+                                                   tiny_scene):
+    """Design A and design B (one more row of bristles), each run and added to the
+    comparison, plus a measured curve: the overlay labels each run by what differs, and the
+    table's peak root force is the run's own (read from its HDF5 file through the API)."""
+    import json
+
+    from conftest import upload
+
+    jobs = []
+    for rows in (2, 3):
+        scene = tiny_scene(duration=0.004)
+        scene["name"] = "compare_me"
+        scene["brushes"][0]["rows"] = rows
+        st = run_to_playback(page, studio, scene, tmp_path)
+        jobs.append(st["playback_job"])
+        click(page, "Results", role="tab")
+        click(page, "Add this run to the comparison")
+        studio.wait_state(lambda s: jobs[-1] in s["compare"]["runs"],
+                          what=f"run {jobs[-1]} in the comparison")
+    measured = tmp_path / "bench.csv"
+    measured.write_text("time [s],force [N]\n0,0\n0.002,0.05\n0.004,0.1\n")
+    upload(page, measured, accept="text/csv")
+    st = studio.wait_state(lambda s: s["compare"]["measured"] == "bench.csv",
+                           what="the measured curve")
+    c = st["compare"]
+    assert c["runs"] == jobs and c["window"]
+    labels = [row["run"] for row in c["table"]]
+    assert labels == [f"rows = 2 · {jobs[0]}", f"rows = 3 · {jobs[1]}"]
+    assert c["plots"]["root |F| [N]"] == labels + ["measured: bench.csv"]
+    for job, row in zip(jobs, c["table"]):
+        with urllib.request.urlopen(f"{studio.api}/api/runs/{job}/series?channel="
+                                    f"brushes/brush/root_force", timeout=30) as r:
+            f = np.asarray(json.loads(r.read())["series"]["brushes/brush/root_force"]
+                           ["values"], float)
+        # the same numbers through two readers: equal to round-off
+        assert row["peak_root_force_N"] == pytest.approx(
+            float(np.linalg.norm(f, axis=1).max()), rel=1e-12)
+    wait_text(page, "peak root force [N]")
+    shot(page, "compare-view")
