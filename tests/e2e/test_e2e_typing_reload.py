@@ -101,7 +101,7 @@ def test_e2e_reload_keeps_the_design_and_undo_restores(studio, browser, shot):
     while "/draft/" not in unquote(page.url):
         assert time.monotonic() < deadline, f"the tab's address stayed {page.url}"
         time.sleep(0.2)
-    page.reload(wait_until="commit")
+    page.reload(wait_until="commit", timeout=120_000)
     page.get_by_label("rows", exact=True).wait_for(timeout=90_000)
     deadline = time.monotonic() + 30
     while page.get_by_label("rows", exact=True).input_value() != "7":
