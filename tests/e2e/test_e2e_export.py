@@ -128,15 +128,23 @@ def _check_view_is_clear(page, studio) -> None:
     import time
 
     studio.wait_state(lambda s: s["plots_window"] == "docked", what="plots docked")
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 120   # (plotly.js, 3 MB, reaches a busy page slowly)
     while True:
         rects = page.evaluate(_RECTS)
         if rects["canvas"] and rects["tab"] and rects["plots"]:
             break
         assert time.monotonic() < deadline, f"canvas, panel or plots not found: {rects}"
         time.sleep(0.3)
-    page.wait_for_timeout(1500)  # (the dock's resize settles)
-    rects = page.evaluate(_RECTS)
+    # the 3D canvas follows its region through a ResizeObserver: with software WebGL on a
+    # loaded machine that takes seconds; wait until it fits, or fail with the rectangles
+    deadline = time.monotonic() + 45
+    while True:
+        rects = page.evaluate(_RECTS)
+        fits = rects["plots"] and all(rects["canvas"]["right"] <= p["left"] + 1
+                                      for p in rects["plots"])
+        if fits or time.monotonic() > deadline:
+            break
+        time.sleep(0.5)
     canvas = rects["canvas"]
     assert canvas["width"] > 150, rects  # the view keeps room of its own
     # one pixel of slack: the dock's splitters are drawn on the boundary
