@@ -172,7 +172,16 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
         scene = tiny_scene(duration=0.004)
         scene["name"] = "compare_me"
         scene["brushes"][0]["rows"] = rows
-        st = run_to_playback(page, studio, scene, tmp_path)
+        path = tmp_path / f"compare_{rows}.json"
+        path.write_text(json.dumps(scene))
+        upload(page, path)
+        studio.wait_state(lambda s: s["scene"]["brushes"][0]["rows"] == rows,
+                          what=f"the design with {rows} rows")
+        click(page, "Run", role="tab")
+        click(page, "Start run")
+        st = studio.wait_state(lambda s: s["mode"] == "playback" and s["n_frames"] > 2
+                               and s["playback_job"] not in jobs, timeout=400,
+                               what=f"the run of {rows} rows in playback")
         jobs.append(st["playback_job"])
         click(page, "Results", role="tab")
         click(page, "Add this run to the comparison")
