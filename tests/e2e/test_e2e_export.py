@@ -17,6 +17,13 @@ import pytest
 from conftest import click, run_to_playback, wait_text
 
 
+def _upload_ready(page) -> None:
+    """Wait for the Presets folder's upload input (a busy page renders the panel for tens of
+    seconds after its first field shows)."""
+    page.locator('input[type=file][accept="application/json"]').wait_for(
+        state="attached", timeout=120_000)
+
+
 def _download(page, button: str, folder):
     """Click ``button`` and save the file the page downloads; returns its path."""
     with page.expect_download(timeout=120_000) as d:
@@ -36,6 +43,7 @@ def test_e2e_export_dialog_downloads_open_in_vtk_meshio_and_h5py(studio, page, s
 
     scene = tiny_scene(duration=0.004)
     scene["name"] = "export_me"
+    _upload_ready(page)
     st = run_to_playback(page, studio, scene, tmp_path)
     job = st["playback_job"]
     click(page, "Results", role="tab")
@@ -174,6 +182,7 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
         scene["brushes"][0]["rows"] = rows
         path = tmp_path / f"compare_{rows}.json"
         path.write_text(json.dumps(scene))
+        _upload_ready(page)
         upload(page, path)
         studio.wait_state(lambda s: s["scene"]["brushes"][0]["rows"] == rows,
                           what=f"the design with {rows} rows")
