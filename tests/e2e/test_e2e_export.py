@@ -182,6 +182,7 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
         scene["brushes"][0]["rows"] = rows
         path = tmp_path / f"compare_{rows}.json"
         path.write_text(json.dumps(scene))
+        click(page, "Design", role="tab")  # (the upload button lives there)
         _upload_ready(page)
         upload(page, path)
         studio.wait_state(lambda s: s["scene"]["brushes"][0]["rows"] == rows,
