@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import io
+import time
 import urllib.request
 import xml.etree.ElementTree as ET
 import zipfile
@@ -182,7 +183,10 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
         scene["brushes"][0]["rows"] = rows
         path = tmp_path / f"compare_{rows}.json"
         path.write_text(json.dumps(scene))
-        click(page, "Design", role="tab")  # (the upload button lives there)
+        # (the upload button lives on the Design tab; a busy page builds its tabs slowly)
+        page.get_by_role("tab", name="Design", exact=True).wait_for(state="attached",
+                                                                    timeout=120_000)
+        click(page, "Design", role="tab")
         _upload_ready(page)
         upload(page, path)
         studio.wait_state(lambda s: s["scene"]["brushes"][0]["rows"] == rows,
@@ -194,9 +198,15 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
                                what=f"the run of {rows} rows in playback")
         jobs.append(st["playback_job"])
         click(page, "Results", role="tab")
-        click(page, "Add this run to the comparison")
-        studio.wait_state(lambda s: jobs[-1] in s["compare"]["runs"],
-                          what=f"run {jobs[-1]} in the comparison")
+        # (the button is enabled when the run loads; a busy page shows that late, and a
+        # click on the still-disabled button does nothing: click until the run is in)
+        add = page.get_by_role("button", name="Add this run to the comparison", exact=True)
+        deadline = time.monotonic() + 90
+        while jobs[-1] not in studio.state()["compare"]["runs"]:
+            assert time.monotonic() < deadline, f"run {jobs[-1]} never in the comparison"
+            if add.is_enabled():
+                click(page, "Add this run to the comparison")
+            time.sleep(1.0)
     measured = tmp_path / "bench.csv"
     measured.write_text("time [s],force [N]\n0,0\n0.002,0.05\n0.004,0.1\n")
     upload(page, measured, accept="text/csv")
