@@ -18,8 +18,8 @@ def _type_into(page, label: str, text: str) -> None:
     Tab. (Focused rather than clicked: a synthetic click at the box's coordinates in viser's
     scrolled panel does not always land in it.)"""
     box = page.get_by_label(label, exact=True)
-    box.wait_for(state="visible", timeout=20_000)
-    box.focus()
+    box.wait_for(state="visible", timeout=60_000)
+    box.focus(timeout=60_000)  # (a busy page may re-mount its panel once it docks it)
     page.keyboard.press("Control+A")
     page.keyboard.type(text, delay=KEY_DELAY_MS)
     page.keyboard.press("Tab")
