@@ -210,8 +210,9 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
     measured = tmp_path / "bench.csv"
     measured.write_text("time [s],force [N]\n0,0\n0.002,0.05\n0.004,0.1\n")
     upload(page, measured, accept="text/csv")
-    st = studio.wait_state(lambda s: s["compare"]["measured"] == "bench.csv",
-                           what="the measured curve")
+    st = studio.wait_state(lambda s: "measured: bench.csv" in
+                           s["compare"]["plots"].get("root |F| [N]", []),
+                           what="the measured curve on the root force plot")
     c = st["compare"]
     assert c["runs"] == jobs and c["window"]
     labels = [row["run"] for row in c["table"]]
