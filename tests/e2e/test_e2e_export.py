@@ -34,6 +34,7 @@ def _download(page, button: str, folder):
     return path
 
 
+@pytest.mark.slow  # a run in the worker (its first run compiles the kernels: 1-3 min cold)
 def test_e2e_export_dialog_downloads_open_in_vtk_meshio_and_h5py(studio, page, shot,
                                                                  tmp_path, tiny_scene):
     import h5py
@@ -167,6 +168,7 @@ def _write(path, data: bytes):
     return path
 
 
+@pytest.mark.slow  # two runs in the worker
 def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
                                                    tiny_scene):
     """Design A and design B (one more row of bristles), each run and added to the
