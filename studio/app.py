@@ -38,6 +38,8 @@ from .console import print_scene_error
 from .exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from .panels.common import STREAM_HZ
 from .panels.result_frames import ResultFrames  # noqa: F401  (the studio's public name)
+from .page_script import send_page_script
+from .panels.design_history import draft_path, new_draft_id
 from .session import Session
 from .presets import demo_scene, load_preset_or_file, preset_names  # noqa: F401  (demo_scene: the studio's public name)
 
@@ -102,8 +104,19 @@ class Studio:
         preset = (path or "").split("?")[0].strip("/").split("/")
         if len(preset) == 2 and preset[0] == "preset" and preset[1] in session.dd_preset.options:
             session.dd_preset.value = preset[1]
+        draft = self.draft_for(path)
         with self.sessions_lock:
+            # a reloaded tab takes its draft back; a second tab opened on the same address
+            # (a copied link) gets a copy under a new id, so two tabs never share one draft
+            taken = {getattr(x, "draft_id", None) for x in self.sessions.values()}
+            draft_id = draft[0] if draft is not None and draft[0] not in taken \
+                else new_draft_id()
             self.sessions[client.client_id] = session
+        if draft is not None:
+            session.restore_draft(draft[1])
+        if self.data_dir is not None:
+            session.attach_draft(draft_id)
+        send_page_script(client)
         session._on_connect(client)
 
     def _on_disconnect(self, client) -> None:
@@ -120,6 +133,10 @@ class Studio:
 
         parts = [p for p in (path or "").split("?")[0].split("/") if p]
         try:
+            draft = self.draft_for(path)
+            if draft is not None:
+                return (engine.parse_scene(draft[1]["scene"]),
+                        "the design as this tab left it (reloaded)")
             if len(parts) == 2 and parts[0] == "preset" and parts[1] in preset_names():
                 return load_preset_or_file(parts[1]), f"opened on preset {parts[1]!r} (link)"
             if len(parts) == 2 and parts[0] == "design":
@@ -131,6 +148,21 @@ class Studio:
         except engine.SceneError as exc:
             return self.default_scene, f"link refused: {exc}"
         return self.default_scene, ""
+
+    def draft_for(self, path: Optional[str]) -> Optional[tuple[str, dict]]:
+        """(id, saved draft) a tab reconnecting at ``/draft/ID`` (a reload) reopens; None
+        when the path names no draft or it is not there (a studio restarted with another
+        data folder)."""
+        parts = [p for p in (path or "").split("?")[0].split("/") if p]
+        if len(parts) != 2 or parts[0] != "draft":
+            return None
+        stored = draft_path(self.data_dir, parts[1])
+        if stored is None or not stored.exists():
+            return None
+        try:
+            return parts[1], json.loads(stored.read_text())
+        except (OSError, ValueError):
+            return None
 
     def design_path(self, design_id: str) -> Optional[Path]:
         if self.data_dir is None or not design_id.isalnum():

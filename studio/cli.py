@@ -18,7 +18,7 @@ import argparse
 import sys
 from typing import Optional
 
-from . import __version__, app, serve_cli
+from . import __version__, app, export, serve_cli
 from .commands import cmd_info as _cmd_info, cmd_run as _cmd_run, cmd_validate as _cmd_validate
 from .console import err as _err
 from .demo import DEMO_DIR, cmd_demo as _cmd_demo
@@ -31,7 +31,7 @@ __all__ = ["build_parser", "main", "COMMAND_MODULES"]
 # Modules that add their own subcommands: each has ``register(subparsers)`` and imports its
 # heavy dependencies (dask, fastapi, viser) only inside the command it runs. This module is
 # the composition root: it imports them, none of them imports it.
-COMMAND_MODULES = (app, convergence, studies_cli, serve_cli, dissipation)
+COMMAND_MODULES = (app, convergence, studies_cli, serve_cli, dissipation, export)
 
 
 # ----------------------------------------------------------------------------- parser

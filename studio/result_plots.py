@@ -63,9 +63,58 @@ def _components(fig, x, v, name: str, dash: str, axes: str = "xyz") -> None:
                         line=dict(color=FORCE_COLORS[k], dash=dash))
 
 
-def _magnitude(fig, x, v, name: str, dash: str) -> None:
+def _magnitude(fig, x, v, name: str, dash: str, color: str = MAGNITUDE_COLOR) -> None:
     fig.add_scatter(x=x, y=np.linalg.norm(v, axis=1), name=name, mode="lines",
-                    line=dict(color=MAGNITUDE_COLOR, dash=dash, width=1.5))
+                    line=dict(color=color, dash=dash, width=1.5))
+
+
+#: one colour per body where a plot shows several bodies (none is the cursor's red)
+BODY_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2",
+               "#17becf", "#bcbd22")
+#: above this many component traces a plot shows each body's magnitude instead, in its own
+#: colour, with the components one click away in the legend (the gripper's 9 traces in 3
+#: colours x 3 dashes could not be told apart, issue 29 item 6)
+MAX_COMPONENT_TRACES = 3
+
+
+def _per_body(fig, x, series: dict, symbol: str, dash_by_name: dict) -> None:
+    """Vector series of several bodies on one plot: components when there is one body;
+    else each body's magnitude in a colour of its own, and its components hidden in the
+    legend (shown by a click)."""
+    if 3 * len(series) <= MAX_COMPONENT_TRACES:
+        for name, v in series.items():
+            _components(fig, x, v, f"{name} {symbol}", dash_by_name[name])
+        return
+    for n, (name, v) in enumerate(series.items()):
+        color = BODY_COLORS[n % len(BODY_COLORS)]
+        _magnitude(fig, x, v, f"{name} |{symbol.rstrip('_')}|", "solid", color)
+        for k, axis in enumerate("xyz"):
+            fig.add_scatter(x=x, y=v[:, k], name=f"{name} {symbol}{axis}", mode="lines",
+                            visible="legendonly",
+                            line=dict(color=color, dash=DASHES[(k + 1) % len(DASHES)],
+                                      width=1))
+
+
+def contact_and_actuator(result, body_names, key: str) -> tuple[dict, dict, set]:
+    """The contact and the actuator series (``key``: ``force`` or ``torque``) of each body,
+    from their own channels: ``bodies/<name>/contact_<key>`` and, where the engine records
+    it, ``bodies/<name>/actuator_<key>`` (a controller's thrust). Returns (contact, actuator,
+    mixed): ``mixed`` names the controlled bodies of a file that has no actuator channel,
+    whose contact channel then carries the thrust too (files written before the engine
+    separated them)."""
+    channels = set(result.channels())
+    scene, _ = _scene_motions(result)
+    controlled = {c.get("body") for c in scene.get("controllers") or []}
+    contact, actuator, mixed = {}, {}, set()
+    for name in body_names:
+        c, a = f"bodies/{name}/contact_{key}", f"bodies/{name}/actuator_{key}"
+        if c in channels:
+            contact[name] = np.asarray(result.series(c), float)
+        if a in channels:
+            actuator[name] = np.asarray(result.series(a), float)
+        elif name in controlled and name in contact:
+            mixed.add(name)
+    return contact, actuator, mixed
 
 
 def result_figures(res: ResultFrames) -> tuple[dict, dict]:
@@ -73,7 +122,9 @@ def result_figures(res: ResultFrames) -> tuple[dict, dict]:
     and, for a plot whose x is not the time, its x at each frame (where its cursor goes):
 
     * root force F_x, F_y, F_z per brush; contact force and contact torque on each body,
-      per component (|F| hid F_z, issue 14 item 9);
+      per component (|F| hid F_z, issue 14 item 9), or with several bodies each body's
+      magnitude in its own colour (components in the legend); a controller's thrust in
+      its own plot (``actuator_force``/``actuator_torque``, where the file records them);
     * root force, and the contact force on the pressed body, against the depth of a
       kinematically pressed body;
     * each moving body's angular velocity, signed components and |omega| [deg/s] (a
@@ -97,21 +148,25 @@ def result_figures(res: ResultFrames) -> tuple[dict, dict]:
             _components(f, t, forces[brush], f"{brush} F_", DASHES[n % len(DASHES)])
     if forces:
         figs["root force [N]"] = f
-    for key, title, symbol in (("contact_force", "contact force on bodies [N]", "F_"),
-                               ("contact_torque", "contact torque on bodies [N m]", "T_")):
-        f, series = go.Figure(), {}
-        for name in res.body_names:
-            c = f"bodies/{name}/{key}"
-            if c in channels:
-                series[name] = np.asarray(r.series(c), float)
+    dash_by_name = {name: DASHES[n % len(DASHES)] for n, name in enumerate(res.body_names)}
+    for key, unit, symbol in (("force", "N", "F_"), ("torque", "N m", "T_")):
+        contact, actuator, mixed = contact_and_actuator(r, res.body_names, key)
         # a body that never touched anything (a chaser whose hull has no contact) is left
         # out, unless none touched
-        touched = {n: v for n, v in series.items() if np.any(v)} or series
-        for n, name in enumerate(res.body_names):
-            if name in touched:
-                _components(f, t, touched[name], f"{name} {symbol}", DASHES[n % len(DASHES)])
+        touched = {n: v for n, v in contact.items() if np.any(v)} or contact
+        labelled = {(f"{n} (contact + actuator)" if n in mixed else n): v
+                    for n, v in touched.items()}
+        dashes = dict(dash_by_name, **{f"{n} (contact + actuator)": dash_by_name[n]
+                                       for n in mixed})
+        f = go.Figure()
+        _per_body(f, t, labelled, symbol, dashes)
         if f.data:
-            figs[title] = f
+            figs[f"contact {key} on bodies [{unit}]"] = f
+        pushing = {n: v for n, v in actuator.items() if np.any(v)}
+        if pushing:
+            f = go.Figure()
+            _per_body(f, t, pushing, symbol, dash_by_name)
+            figs[f"actuator {key} on bodies [{unit}]"] = f
 
     press = press_depth(res)
     if press is not None:

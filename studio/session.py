@@ -22,6 +22,7 @@ from . import ui_guides as ug
 from . import ui_scene as us
 from . import ui_view as uv
 from .panels.common import POLL_S, STUDIES_POLL_S
+from .panels.compare import ComparePanel
 from .panels.design import DesignPanel
 from .panels.result_frames import ResultFrames
 from .panels.results import ResultsPanel
@@ -29,7 +30,7 @@ from .panels.run import RunPanel
 from .panels.studies import StudiesPanel
 
 
-class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
+class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
     """One tab's studio. ``target``: a viser ClientHandle (or the ViserServer: shared by every
     tab); ``jobs``: the shared ``studio.jobs.JobManager`` (or None: designing only);
     ``scene``: the design it opens on."""
@@ -94,6 +95,12 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
     # ----------------------------------------------------------------- GUI
     def _build_gui(self) -> None:
         gui = self.server.gui
+        # The control panel docked at the left edge: the 3D view is inset beside it (and
+        # beside the plots docked at the right) instead of lying under a floating panel
+        # that covered its middle once the plots docked (issue 29, item 4).
+        main_panel = getattr(gui, "main_panel", None)
+        if main_panel is not None:
+            main_panel.dock_left()
         who = f" · session {self.client_id}" if self.client_id is not None else ""
         self.md_title = gui.add_markdown(f"**Brush Studio**{who}")
         self.md_summary = gui.add_markdown("")
@@ -170,6 +177,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, StudiesPanel):
                               "bristles": len(o.items), "message": str(o)}
                              for o in self.overlaps],
                 "studies": self.studies.state() if self.studies is not None else None,
+                "compare": self.compare_state(),
                 "scene": self.scene,
             }
 

@@ -16,7 +16,7 @@ from typing import Optional
 
 from engine.jsonable import finite_or_none
 
-HEIGHT = 340              # px of one chart in the side panel
+HEIGHT = 420              # px of one chart in the side panel (a plot area over 250 px tall)
 MAX_SERIES = 12           # traces in one chart (more runs: the first ones)
 
 
@@ -30,8 +30,13 @@ def _layout(fig, title: str, x: str, y: str, legend: bool = True) -> None:
     # (the title sits above the plot area, clear of plotly's toolbar at the top right)
     fig.update_layout(title=dict(text=title, font=dict(size=13), x=0.02, y=0.97),
                       xaxis=dict(title=x), yaxis=dict(title=y), height=HEIGHT,
-                      margin=dict(l=55, r=10, t=55, b=45), showlegend=legend,
-                      legend=dict(orientation="h", y=-0.25), hovermode="closest")
+                      margin=dict(l=55, r=10, t=55, b=95 if legend else 45),
+                      showlegend=legend,
+                      # below the x-axis title, not over it (issue 29, item 6): anchored by
+                      # its top, under the title's band
+                      legend=dict(orientation="h", x=0.0, y=-0.22, yanchor="top",
+                                  font=dict(size=10)),
+                      hovermode="closest")
 
 
 def force_depth_figure(rows: list[dict]):

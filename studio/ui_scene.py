@@ -293,7 +293,9 @@ def set_material_preset(scene: dict, sel: Selection, preset: str) -> dict:
 
 
 def add_body(scene: dict, kind: str = "box", size: float = 0.02) -> dict:
-    """A copy of ``scene`` with a new fixed primitive body above the first brush's tips."""
+    """A copy of ``scene`` with a new fixed primitive body above the first brush's tips and
+    above every body already there (it used to land inside a wedge pressed on the tips,
+    issue 29 item 8), 1 mm clear."""
     new = copy.deepcopy(scene)
     mats = new.setdefault("materials", {})
     if "pla" not in mats:
@@ -302,6 +304,15 @@ def add_body(scene: dict, kind: str = "box", size: float = 0.02) -> dict:
     if new.get("brushes"):
         br = new["brushes"][0]
         z = float(br.get("base", {}).get("position", [0, 0, 0])[2]) + br["bristle_length"]
+    if new.get("bodies"):
+        from engine import layout
+
+        from .ui_view import design_bodies
+
+        for b in design_bodies(new):
+            if len(b.vertices):
+                world = b.vertices @ layout.quat_to_matrix(b.wxyz).T + b.position
+                z = max(z, float(world[:, 2].max()))
     names = {b["name"] for b in new.get("bodies") or []}
     name = next(n for n in ("cube", "sphere", "plate", "target", "wedge") +
                 tuple(f"body{i}" for i in range(2, 1000)) if n not in names)

@@ -20,6 +20,7 @@ from .. import ui_warnings as uw
 from ..presets import preset_names
 from .brushes import BrushSelector
 from .design_files import DesignFiles
+from .design_history import DesignHistory
 from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape
 
 
@@ -27,13 +28,14 @@ from .common import MAX_VIEW_SEGMENTS, _fmt_value, _md_escape
 WARNED_FIELDS = ("bristle_length", "pitch_x", "pitch_y")
 
 
-class DesignPanel(BrushSelector, DesignFiles):
+class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
     """Design tab of the studio (mixin)."""
 
     def _build_design_gui(self, gui) -> None:
         self.widgets: dict[str, Any] = {}
         self.error_md: dict[str, Any] = {}
         with self.tab_design:
+            self._build_history_gui(gui)
             with gui.add_folder("Presets", expand_by_default=True):
                 self.dd_preset = gui.add_dropdown("preset", preset_names(),
                                                   initial_value="demo")
@@ -44,6 +46,10 @@ class DesignPanel(BrushSelector, DesignFiles):
                 self.up_json.on_upload(self._on_upload_json)
                 self.bt_download_json = gui.add_button("Download design as JSON")
                 self.bt_download_json.on_click(self._on_download_json)
+                self.bt_download_stl = gui.add_button(
+                    "Download brush geometry (STL)",
+                    hint="the bristles at rest, millimetres, for CAD")
+                self.bt_download_stl.on_click(self._on_download_stl)
                 self.bt_share = gui.add_button("Share this design (link)")
                 self.bt_share.on_click(self._on_share)
                 self.md_preset = gui.add_markdown("", visible=False)
@@ -169,7 +175,8 @@ class DesignPanel(BrushSelector, DesignFiles):
                 return False
             except ValueError as exc:
                 self._show_errors({key: [str(exc) + self._kept(f)]})
-                self._reset_box(f)
+                if not from_client:
+                    self._reset_box(f)
                 return False
             v = us.validate(new)
             if not v.ok:
@@ -179,8 +186,14 @@ class DesignPanel(BrushSelector, DesignFiles):
                 msgs[key] = [f"{f.label} = {_fmt_value(value)} {f.unit}".rstrip() +
                              " refused" + self._kept(f)] + mine
                 self._show_errors(msgs)
-                self._reset_box(f)
+                # A value typed in the browser stays in its box, with the refusal under it:
+                # the box sends each keystroke, so "0.8" arrives as 0, 0., 0.8; putting the
+                # design's 1 back into the box on the refused 0 made the next keys type
+                # "1.8" (issue 29, item 1). The message says what the design keeps.
+                if not from_client:
+                    self._reset_box(f)
                 return False
+            self._edit_key = key   # (undo: successive keystrokes in one box are one edit)
             self.scene = us.scene_dict(v.scene)
             self._clear_errors()
             self.set_mode("design", redraw=False)
@@ -221,6 +234,8 @@ class DesignPanel(BrushSelector, DesignFiles):
         with self.lock:
             self.scene = us.scene_dict(scene)
             self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
+            self.loaded_label = f"{self.scene.get('name', 'scene')!r} was loaded"
+            self._history_changed()
             self.sel = us.Selection()
             for md in (self.md_brush, self.md_body):  # notes on the previous design
                 self._set_note(md, "")

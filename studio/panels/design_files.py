@@ -92,8 +92,8 @@ class DesignFiles:
                              f"has edits since it was loaded. Loading preset "
                              f"**{_md_escape(name)}** replaces them (*Download design as "
                              f"JSON* keeps a copy).")
+            keep = gui.add_button("Keep editing")  # (first: the button Enter presses)
             discard = gui.add_button(f"Discard edits and load {name}", color="red")
-            keep = gui.add_button("Keep editing")
 
             def _discard(_event) -> None:
                 modal.close()
@@ -111,6 +111,7 @@ class DesignFiles:
             self._set_note(self.md_preset, "; ".join(str(p) for p in exc.problems))
             return
         self.set_design(scene)
+        self.mark_loaded(f"preset {name!r} was loaded")
         if name in self.dd_preset.options:
             self.dd_preset.value = name
         self._set_note(self.md_preset, f"loaded preset {name!r}")
@@ -126,6 +127,7 @@ class DesignFiles:
                            "; ".join(str(p) for p in exc.problems))
             return
         self.set_design(scene)
+        self.mark_loaded(f"{up.name} was loaded")
         self._set_note(self.md_preset, f"loaded {up.name}")
 
     def design_json(self) -> str:
@@ -153,3 +155,18 @@ class DesignFiles:
         name = _safe_name(self.scene.get("name", "scene")) + ".json"
         event.client.send_file_download(name, self.design_json().encode(),
                                         save_immediately=True)
+        self.mark_loaded(f"it was saved as {name}")
+
+    def _on_download_stl(self, event) -> None:
+        """The designed brush as STL (``studio.export.brush_stl``), named after the design."""
+        if event.client is None:
+            return
+        from ..export import brush_stl
+
+        try:
+            data = brush_stl(self.scene)
+        except ValueError as exc:
+            self._set_note(self.md_preset, str(exc))
+            return
+        event.client.send_file_download(_safe_name(self.scene.get("name", "scene")) + ".stl",
+                                        data, save_immediately=True)

@@ -16,7 +16,9 @@ from .common import (COLOR_MODES, PLOT_ASPECT, PLOT_CURSOR_S, SPEEDS, _md_escape
 from .result_frames import ResultFrames, color_note
 
 PLOT_PLACES = ("docked", "pop out", "minimise")
-PLOTS_DOCKED_WIDTH = 560      # px: a plot 540 px wide, 340 px tall
+# px: a plot 460 px wide; the 3D view gets what the control panel (384 px, docked left)
+# and the plots leave between them
+PLOTS_DOCKED_WIDTH = 480
 PLOTS_FLOAT_SIZE = (900, 700)  # px
 
 
@@ -43,8 +45,13 @@ class ResultsPanel:
             self.bg_plots.on_click(lambda e: self._place_plots(e.target.value))
             self.bt_download_h5 = gui.add_button("Download result HDF5", disabled=True)
             self.bt_download_h5.on_click(self._on_download_h5)
+            self.bt_export = gui.add_button(
+                "Export…", disabled=True,
+                hint="the run for ParaView and Python tools, the plotted series as CSV")
+            self.bt_export.on_click(self._on_export_dialog)
             self.bt_design = gui.add_button("Back to the design view")
             self.bt_design.on_click(lambda e: self.set_mode("design"))
+            self._build_compare_gui(gui)
             self.plots: dict[str, Any] = {}
             self.figures: dict[str, Any] = {}
             self.legend: Optional[dict] = None
@@ -129,6 +136,8 @@ class ResultsPanel:
             self._set_time_slider(np.asarray(frames.time, float))
             self.cb_play.disabled = n < 2
             self.bt_download_h5.disabled = False
+            self.bt_export.disabled = False
+            self.bt_compare_add.disabled = False
             info = self.jobs.get(job_id)
             t_end = float(frames.time[-1]) if n else 0.0
             self.md_result.content = (
@@ -307,9 +316,67 @@ class ResultsPanel:
         if event.client is None or self.playback_job is None:
             return
         path = self.jobs.result_path(self.playback_job)
-        event.client.send_file_download(
-            f"{_safe_name(self.jobs.get(self.playback_job).name)}-{self.playback_job}.h5",
-            path.read_bytes(), save_immediately=True)
+        event.client.send_file_download(f"{self._export_name()}.h5", path.read_bytes(),
+                                        save_immediately=True)
+
+    def _export_name(self) -> str:
+        """The stem every download of the loaded run shares: ``NAME-JOB``."""
+        return f"{_safe_name(self.jobs.get(self.playback_job).name)}-{self.playback_job}"
+
+    def _on_export_dialog(self, event) -> None:
+        """The export dialog: the run as a ParaView series, the plotted series as CSV, the
+        HDF5 file, each a download named after the run."""
+        if event.client is None or self.playback_job is None:
+            return
+        gui = event.client.gui
+        stem = self._export_name()
+        n = self.playback.n_frames if self.playback is not None else 0
+        with gui.add_modal(f"Export run {self.playback_job}") as modal:
+            gui.add_markdown(
+                f"**{_md_escape(stem)}**, {n} frames.\n\n"
+                f"* **ParaView / Python** (`{_md_escape(stem)}.zip`): `{_md_escape(stem)}.pvd` "
+                f"and one VTK `.vtu` per frame: open the `.pvd` in ParaView (a time series), "
+                f"read a `.vtu` with VTK, meshio or PyVista. Bristles as lines, bodies as "
+                f"triangles in the world frame, metres; point data `radius`, `part`.\n"
+                f"* **Plotted series** (`{_md_escape(stem)}-plots.csv`): every curve of the "
+                f"plots, one row per point (plot, series, x, y with their units).\n"
+                f"* **HDF5** (`{_md_escape(stem)}.h5`): everything recorded "
+                f"(docs/results.md).\n\n"
+                f"The same from a shell: `brush-studio export {_md_escape(stem)}.h5 -o "
+                f"{_md_escape(stem)}`.")
+            every = gui.add_number("every N-th frame (ParaView)", 1, min=1, step=1)
+            b_vtk = gui.add_button("Download ParaView series (.zip)")
+            b_csv = gui.add_button("Download plotted series (.csv)")
+            b_h5 = gui.add_button("Download HDF5 (.h5)")
+            b_close = gui.add_button("Close", color="gray")
+            status = gui.add_markdown("")
+
+            def _vtk(_e) -> None:
+                from engine.vtk_export import export_vtk_zip
+
+                status.content = "writing the series…"
+                try:
+                    data = export_vtk_zip(self.jobs.result_path(self.playback_job), stem,
+                                          every=max(int(every.value), 1))
+                except Exception as exc:
+                    status.content = f"<span style='color:#d00'>export failed: " \
+                                     f"{_md_escape(str(exc))}</span>"
+                    return
+                event.client.send_file_download(f"{stem}.zip", data, save_immediately=True)
+                status.content = f"sent {stem}.zip ({len(data) / 1e6:.2f} MB)"
+
+            def _csv(_e) -> None:
+                from ..export import figures_csv
+
+                data = figures_csv(self.figures).encode()
+                event.client.send_file_download(f"{stem}-plots.csv", data,
+                                                save_immediately=True)
+                status.content = f"sent {stem}-plots.csv"
+
+            b_vtk.on_click(_vtk)
+            b_csv.on_click(_csv)
+            b_h5.on_click(self._on_download_h5)
+            b_close.on_click(lambda _e: modal.close())
 
     def _advance_play(self, now: float) -> None:
         if self.mode != "playback" or self.playback is None or not self.cb_play.value:

@@ -113,14 +113,14 @@ class RunPanel:
             scene = copy.deepcopy(self.scene)
             refused = [o for o in self.overlaps if o.kind != "bristle-bristle"]
         if refused:  # (the build would refuse it in the worker: say so now)
-            self.md_status.content = "Refused: " + "; ".join(_md_escape(str(o))
-                                                             for o in refused)
+            self.md_status.content = "<span style='color:#d00'>Refused: " + "; ".join(
+                _md_escape(str(o)) for o in refused) + "</span>"
             return None
         try:
             job_id = self.jobs.submit(scene, name=scene.get("name"))
         except engine.SceneError as exc:
-            self.md_status.content = "Refused: " + "; ".join(
-                _md_escape(str(p)) for p in exc.problems)
+            self.md_status.content = "<span style='color:#d00'>Refused: " + "; ".join(
+                _md_escape(str(p)) for p in exc.problems) + "</span>"
             return None
         except Exception as exc:
             self.md_status.content = f"Could not start: {_md_escape(str(exc))}"
@@ -149,8 +149,10 @@ class RunPanel:
                 f"({rc.cost.steps:,.0f} steps × {rc.cost.n_nodes:,} nodes at "
                 f"{_fmt_rate(rc.rate)} node-steps/s) and to write "
                 f"~{rc.cost.result_bytes / 2**20:,.0f} MiB.")
-            go = event.client.gui.add_button("Start anyway", color="green")
+            # "Don't start" first: the dialog focuses its first button, so Enter keeps
+            # the user out of a long run rather than starting it (issue 29, item 8)
             stop = event.client.gui.add_button("Don't start")
+            go = event.client.gui.add_button("Start anyway", color="orange")
 
             def start(_):
                 modal.close()

@@ -18,7 +18,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
     """The routes of scene jobs (``guarded``: the dependencies of every route)."""
     import anyio
     from fastapi import APIRouter, Header, HTTPException, Query, Request
-    from fastapi.responses import FileResponse, JSONResponse
+    from fastapi.responses import FileResponse, JSONResponse, Response
 
     import engine
 
@@ -136,6 +136,35 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in info.name)[:80]
         return FileResponse(path, media_type="application/x-hdf5",
                             filename=f"{safe or 'run'}-{job_id}.h5")
+
+    @router.get("/api/runs/{job_id}/export", dependencies=guarded, tags=["runs"],
+             summary="The run for ParaView and Python tools (.pvd + .vtu series, zip)",
+             response_class=Response,
+             responses={200: {"content": {"application/zip": {
+                 "schema": {"type": "string", "format": "binary"}}},
+                 "description": "NAME-ID/NAME-ID.pvd and one .vtu per exported frame "
+                                "(engine/vtk_export.py)"},
+                 **error_responses(404, 409)})
+    def get_export(job_id: str,
+                   every: int = Query(1, ge=1, le=1_000_000,
+                                      description="export every N-th recorded frame")):
+        info = job_or_404(job_id)
+        if info.status not in FINAL_STATUSES:
+            raise HTTPException(409, f"run {job_id} is {info.status}: it can be exported "
+                                     f"when it has finished")
+        path = jobs.result_path(job_id)
+        if not path.is_file():
+            raise HTTPException(404, f"run {job_id} ({info.status}) has no result file")
+        from engine.vtk_export import export_vtk_zip
+
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in info.name)[:80]
+        stem = f"{safe or 'run'}-{job_id}"
+        try:
+            data = export_vtk_zip(path, stem, every=every)
+        except engine.BrushStudioError as exc:
+            raise HTTPException(409, f"run {job_id}: {exc}") from None
+        return Response(data, media_type="application/zip", headers={
+            "Content-Disposition": f'attachment; filename="{stem}.zip"'})
 
     @router.get("/api/runs/{job_id}/scene", dependencies=guarded, tags=["runs"],
              summary="The scene a run runs", response_model=dict,

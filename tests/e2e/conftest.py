@@ -114,7 +114,7 @@ def page(studio, browser):
                                   accept_downloads=True)
     pg = context.new_page()
     pg.goto(studio.url)
-    pg.get_by_label("rows", exact=True).wait_for(timeout=30_000)
+    pg.get_by_label("rows", exact=True).wait_for(timeout=90_000)  # (a loaded CI machine)
     yield pg
     context.close()
 

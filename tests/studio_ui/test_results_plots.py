@@ -99,13 +99,53 @@ def test_plots_show_signed_components_of_a_reversing_spin():
     assert set(F) == {"brush F_x", "brush F_y", "brush F_z"}
     assert F["brush F_z"] == pytest.approx([-3.0] * 5)
     T = {d.name: np.asarray(d.y) for d in figs["contact torque on bodies [N m]"].data}
-    assert T["disc T_z"] == pytest.approx([-0.4] * 5)
+    # a controlled body in a file without actuator channels: its "contact" channel holds
+    # the thrust too, and the label says so (issue 29, item 5)
+    assert T["disc (contact + actuator) T_z"] == pytest.approx([-0.4] * 5)
+    assert "actuator force on bodies [N]" not in figs
     dv = figs["Δv of the controlled body [m/s]"].data[0]
     assert dv.name.startswith("disc Δv") and dv.y[-1] == pytest.approx(0.2)
     # no trace of the cursor's red, and every plot's x is the time (no press here)
     from studio.result_plots import CURSOR_COLOR
     assert not cursor_x
     assert all(d.line.color != CURSOR_COLOR for f in figs.values() for d in f.data)
+
+
+def test_contact_and_actuator_series_come_from_their_own_channels():
+    """With the engine's actuator channels (issue 22), a controlled body's thrust gets its
+    own plot and the contact plot shows the contact channel alone: a plot that read the
+    thrust into "contact force" (issue 29, item 5) would fail here."""
+    from studio.result_plots import result_figures
+
+    frames = _spin_frames()
+    frames.res.data["bodies/disc/actuator_force"] = np.tile([5.0, 0.0, 0.0], (5, 1))
+    frames.res.data["bodies/disc/actuator_torque"] = np.zeros((5, 3))
+    figs, _ = result_figures(frames)
+    contact = {d.name: np.asarray(d.y) for d in figs["contact force on bodies [N]"].data}
+    assert set(contact) == {"disc F_x", "disc F_y", "disc F_z"}
+    assert contact["disc F_x"] == pytest.approx([0.1] * 5)
+    thrust = {d.name: np.asarray(d.y) for d in figs["actuator force on bodies [N]"].data}
+    assert thrust["disc F_x"] == pytest.approx([5.0] * 5)
+    assert "actuator torque on bodies [N m]" not in figs  # (all zero: nothing to show)
+
+
+def test_several_bodies_show_one_coloured_magnitude_each():
+    """Three bodies (the gripper's fingers and target): one |F| per body, each its own
+    colour, the 9 components hidden in the legend (issue 29, item 6)."""
+    from studio.result_plots import result_figures
+
+    frames = _spin_frames()
+    for name, f in (("a", [3.0, 4.0, 0.0]), ("b", [0.0, 0.0, 2.0])):
+        frames.res.data[f"bodies/{name}/contact_force"] = np.tile(f, (5, 1))
+    frames.body_names = ["disc", "a", "b"]
+    frames.res.scene["controllers"] = []
+    figs, _ = result_figures(frames)
+    data = figs["contact force on bodies [N]"].data
+    shown = [d for d in data if d.visible is not False and d.visible != "legendonly"]
+    assert [d.name for d in shown] == ["disc |F|", "a |F|", "b |F|"]
+    assert len({d.line.color for d in shown}) == 3
+    assert np.asarray(shown[1].y) == pytest.approx([5.0] * 5)  # |(3, 4, 0)|
+    assert sum(d.visible == "legendonly" for d in data) == 9
 
 
 def test_the_time_slider_picks_the_nearest_recorded_frame():

@@ -154,6 +154,19 @@ def test_ui_add_body_above_the_tips(demo):
     assert body["pose"]["position"][2] - 0.005 == pytest.approx(0.033 + 0.001)
 
 
+def test_ui_add_body_clears_the_bodies_already_there(demo):
+    """The demo's wedge rests on the tips (z = 33.5 mm); "Add body" put its cube at 34 mm,
+    inside the wedge (issue 29, item 8). The wedge's top, from the scene alone: its pose
+    (z = 33.5 mm) plus its height, the shape standing on its edge (docs/scene.md)."""
+    wedge = demo["bodies"][0]
+    top = wedge["pose"]["position"][2] + wedge["shape"]["height"]
+    s = us.add_body(demo, "box", 0.02)
+    assert us.validate(s).ok
+    cube = s["bodies"][1]
+    # the cube's lowest point 1 mm above the wedge's top (round-off of a mm sum: 1e-12 m)
+    assert cube["pose"]["position"][2] - 0.01 == pytest.approx(top + 0.001, abs=1e-12)
+
+
 @pytest.mark.parametrize("motion", [
     {"type": "fixed"},
     {"type": "hinge", "axis": [1.0, 0.0, 0.0]},
