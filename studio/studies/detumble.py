@@ -27,14 +27,15 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
 import numpy as np
 
+from pydantic import Field
+
 from . import api
-from .api import ExecutionOptions
+from .options import StudyOptions
 from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
 
 PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
@@ -218,9 +219,11 @@ def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
     return {"runs": rows}
 
 
-def _floats(text: Optional[str], what: str) -> list:
-    if text is None:
+def _floats(text, what: str) -> list:
+    if text is None or (isinstance(text, list) and not text):
         return [None]
+    if isinstance(text, list):  # checked by the options model
+        return [float(v) for v in text]
     from .study_command import number_list
 
     values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
@@ -229,22 +232,53 @@ def _floats(text: Optional[str], what: str) -> list:
     return values
 
 
-@dataclass
-class Options(ExecutionOptions):
-    """``brush-studio study detumble`` (``None``: the preset's value)."""
+_POSITIVE_LIST = list[Annotated[float, Field(gt=0, allow_inf_nan=False)]]
 
-    preset: str = "detumble_upper_stage"
-    sizes: str = "1"                  # target scale factors
-    spins: Optional[str] = None       # deg/s
-    lengths: Optional[str] = None     # bristle lengths, mm
-    diameters: Optional[str] = None   # bristle root diameters, mm
-    threshold: float = 0.05           # detumbled: |w| below this fraction of the initial
-    stress_limit: Optional[float] = None  # Pa; default STRESS_LIMITS[material]
-    n_nodes: Optional[int] = None
-    rows: Optional[int] = None
-    columns: Optional[int] = None
-    duration: Optional[float] = None
-    record_interval: Optional[float] = None
+
+class Options(StudyOptions):
+    """``brush-studio study detumble`` (``None`` or an empty list: the preset's value)."""
+
+    preset: str = Field("detumble_upper_stage",
+                        description="the detumble scene: " + " or ".join(PRESETS)
+                        + " (default detumble_upper_stage), or a scene file with the same "
+                          "layout", json_schema_extra={"metavar": "NAME_OR_FILE",
+                                                       "scene": True})
+    sizes: _POSITIVE_LIST = Field([1.0], min_length=1,
+                                  description="target scale factors (default 1)")
+    spins: _POSITIVE_LIST = Field(default_factory=list,
+                                  description="initial spin rates, deg/s (default: the "
+                                              "preset's)",
+                                  json_schema_extra={"metavar": "DEG_PER_S",
+                                                     "unit": "deg/s"})
+    lengths: _POSITIVE_LIST = Field(default_factory=list,
+                                    description="bristle lengths, mm (default: the preset's)",
+                                    json_schema_extra={"metavar": "MM", "unit": "mm"})
+    diameters: _POSITIVE_LIST = Field(default_factory=list,
+                                      description="bristle root diameters, mm (default: the "
+                                                  "preset's)",
+                                      json_schema_extra={"metavar": "MM", "unit": "mm"})
+    threshold: float = Field(0.05, gt=0, lt=1,
+                             description="detumbled once |omega| stays below this fraction "
+                                         "of its initial value (default 0.05)")
+    stress_limit: Optional[float] = Field(
+        None, gt=0, description="bristle bending stress limit, Pa (default: "
+        + ", ".join(f"{k} {v:g}" for k, v in STRESS_LIMITS.items()) + ")",
+        json_schema_extra={"metavar": "PA", "unit": "Pa"})
+    n_nodes: Optional[int] = Field(None, ge=2, le=4096,
+                                   description="nodes per bristle (default: the preset's)",
+                                   json_schema_extra={"flags": ["--nodes", "--n-nodes"],
+                                                      "metavar": "N"})
+    rows: Optional[int] = Field(None, ge=1, description="brush rows (default: preset's)")
+    columns: Optional[int] = Field(None, ge=1,
+                                   description="bristles per row (default: the preset's)")
+    duration: Optional[float] = Field(None, gt=0,
+                                      description="simulated time per run at most (default: "
+                                                  "the preset's; a run stops earlier once "
+                                                  "the target is detumbled)",
+                                      json_schema_extra={"metavar": "S", "unit": "s"})
+    record_interval: Optional[float] = Field(None, gt=0,
+                                             description="time between recorded frames, s",
+                                             json_schema_extra={"metavar": "S", "unit": "s"})
 
 
 def add_parser(study_subparsers) -> None:
@@ -257,31 +291,6 @@ def add_parser(study_subparsers) -> None:
                     "detumble, peak loads on target and chaser, the chaser's Delta-v and "
                     "attitude error, peak bristle bending stress against the limit; swept "
                     "over target size, spin rate and brush design. See docs/mission.md.")
-    p.add_argument("--preset", default="detumble_upper_stage", metavar="NAME_OR_FILE",
-                   help="the detumble scene: " + " or ".join(PRESETS) + " (default "
-                        "detumble_upper_stage), or a scene file with the same layout")
-    p.add_argument("--sizes", default="1", help="target scale factors (default 1)")
-    p.add_argument("--spins", default=None, metavar="DEG_PER_S",
-                   help="initial spin rates, deg/s (default: the preset's)")
-    p.add_argument("--lengths", default=None, metavar="MM",
-                   help="bristle lengths, mm (default: the preset's)")
-    p.add_argument("--diameters", default=None, metavar="MM",
-                   help="bristle root diameters, mm (default: the preset's)")
-    p.add_argument("--threshold", type=float, default=0.05,
-                   help="detumbled once |omega| stays below this fraction of its initial "
-                        "value (default 0.05)")
-    p.add_argument("--stress-limit", type=float, default=None, metavar="PA",
-                   help="bristle bending stress limit, Pa (default: "
-                        + ", ".join(f"{k} {v:g}" for k, v in STRESS_LIMITS.items()) + ")")
-    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the preset's)")
-    p.add_argument("--rows", type=int, default=None, help="brush rows (default: preset's)")
-    p.add_argument("--columns", type=int, default=None,
-                   help="bristles per row (default: the preset's)")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="simulated time per run at most (default: the preset's; a run "
-                        "stops earlier once the target is detumbled)")
-    p.add_argument("--record-interval", type=float, default=None, metavar="S")
     set_command(p, run, Options, default_output="study-detumble")
 
 
@@ -313,26 +322,16 @@ def _grid(options: Options) -> dict:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .study_command import check_common_options, first_problem, report_failures, run_study
+    from .study_command import report_failures, run_study
 
-    problem = check_common_options(options)
+    problem = None
     grid = None
     try:
         grid = _grid(options)
     except ValueError as exc:
-        problem = problem or str(exc)
-    checks = [
-        (0 < options.threshold < 1, "--threshold must be between 0 and 1"),
-        (options.stress_limit is None or options.stress_limit > 0,
-         "--stress-limit must be > 0"),
-        (options.n_nodes is None or options.n_nodes >= 2, "--n-nodes must be >= 2"),
-        (options.rows is None or options.rows >= 1, "--rows must be >= 1"),
-        (options.columns is None or options.columns >= 1, "--columns must be >= 1"),
-        (options.duration is None or options.duration > 0, "--duration must be > 0"),
-        (options.record_interval is None or options.record_interval > 0,
-         "--record-interval must be > 0")]
+        problem = str(exc)
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
-                               desc="detumble runs", problem=first_problem(problem, checks))
+                               desc="detumble runs", problem=problem)
     if code is not None:
         return code
     summary = write_outputs(out, outcomes, options.threshold)
