@@ -14,8 +14,10 @@ Every path checks the values with the same model, so the bounds are written once
 
 A field's ``json_schema_extra`` may also hold ``"flags"`` (the command-line spellings, e.g.
 ``["--nodes", "--n-nodes"]``), ``"metavar"``, ``"positional": True`` (a positional argument),
-``"short"`` (e.g. ``"-Q"``) and ``"scene": True`` (a preset name or file: the job layer
-resolves names and refuses paths). Values the user types in mm or degrees stay in those units
+``"short"`` (e.g. ``"-Q"``), ``"scene": True`` (a preset name or file: the job layer
+resolves names and refuses paths), ``"design": True`` (a scene option that takes any
+design: the studio's form starts it on the current design) and ``"group"`` (its section of
+the command's help). Values the user types in mm or degrees stay in those units
 in the model; the study converts them to SI.
 """
 from __future__ import annotations
@@ -37,7 +39,7 @@ __all__ = ["StudyOptions", "StudyOptionError", "EXECUTION_OPTIONS", "add_model_a
 class StudyOptions(BaseModel):
     """The execution options every study has; a study's ``Options`` adds its own fields."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     scheduler: Optional[str] = Field(
         None, pattern=r"^\w+://.+$",
@@ -300,11 +302,16 @@ def parse_options(model: type[StudyOptions], data: Optional[dict], *, flags: boo
         if isinstance(value, float) and not math.isfinite(value):
             raise StudyOptionError([(str(key), value, "must be finite")])
         info = model.model_fields.get(k)
+        if info is not None and _kind(info.annotation)[0] == "bool" \
+                and not isinstance(value, bool):  # no "yes" or 1 for a flag
+            raise StudyOptionError([(str(key), value, "must be true or false")])
         if info is not None and value is not None and not isinstance(value, (list, tuple)) \
                 and _kind(info.annotation)[0] == "list":  # one value for a list option
             item = _kind(info.annotation)[1]
             value = _split_list(value) if (isinstance(value, str) and
                                            _kind(item)[0] != "str") else [value]
+        if info is not None:
+            value = _typed_text(info.annotation, value)
         clean[k] = value
     try:
         return model.model_validate(clean)
@@ -318,7 +325,8 @@ def form_fields(model: type[StudyOptions], *, skip: Iterable[str] = EXECUTION_OP
     """The studio form of ``model``: one dict per field (``skip``: the execution options by
     default) with ``name``, ``label``, ``kind`` (bool, int, float, str, choice, list),
     ``item`` (a list's item kind), ``default``, ``unit``, ``help``, ``choices``, the bounds
-    (``ge``/``gt``/``le``/``lt``), ``required`` and ``scene`` (a preset-name option)."""
+    (``ge``/``gt``/``le``/``lt``), ``required``, ``optional`` (``None`` allowed), ``scene`` (a
+    preset-name option) and ``design`` (a scene option that takes any design)."""
     out = []
     skip = set(skip)
     for name, info in model.model_fields.items():
@@ -331,8 +339,11 @@ def form_fields(model: type[StudyOptions], *, skip: Iterable[str] = EXECUTION_OP
                  "kind": kind, "default": default, "unit": extra.get("unit"),
                  "help": info.description or "", "required": info.is_required(),
                  "optional": _unwrap(info.annotation)[1], "scene": bool(extra.get("scene")),
+                 "design": bool(extra.get("design")),
                  "choices": arg if kind == "choice" else None,
                  "item": (_kind(arg)[0] if kind == "list" else None)}
         entry.update(_bounds(info))
+        entry["group"] = extra.get("group")
         out.append(entry)
-    return out
+    # the study's own options first, then the grouped ones (the protocol) as in --help
+    return sorted(out, key=lambda e: e["group"] is not None)

@@ -73,7 +73,8 @@ class Options(ProtocolOptions):
     preset: list[str] = Field(default_factory=list, max_length=1,
                               description="scene file or preset name (default wedge_60); "
                                           "one only",
-                              json_schema_extra={"metavar": "SCENE", "scene": True})
+                              json_schema_extra={"metavar": "SCENE", "scene": True,
+                                           "design": True})
     levels: list[Annotated[int, Field(ge=2, le=4096)]] = Field(
         [int(x) for x in DEFAULT_LEVELS.split(",")], min_length=2,
         description=f"nodes per bristle (default {DEFAULT_LEVELS})",

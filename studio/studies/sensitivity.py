@@ -122,7 +122,8 @@ class SensitivityOptions(ProtocolOptions):
     preset: list[str] = Field(
         default_factory=list,
         description="scene file or preset name (repeat for several; default wedge_60)",
-        json_schema_extra={"metavar": "SCENE", "scene": True})
+        json_schema_extra={"metavar": "SCENE", "scene": True,
+                                           "design": True})
     angles: list[Annotated[float, Field(gt=0, lt=180)]] = Field(
         default_factory=list,
         description="wedge angles in degrees: the presets wedge_<angle> (or one --preset with "

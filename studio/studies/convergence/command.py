@@ -29,7 +29,7 @@ class Options(StudyOptions):
     "qs_increments=1,2,4"), ``quantity`` measured in each against ``reference``."""
 
     scene: Optional[str] = Field(None, description="the scene file (or give --preset)",
-                                 json_schema_extra={"positional": True,
+                                 json_schema_extra={"positional": True, "design": True,
                                                     "metavar": "SCENE.json", "scene": True})
     quantity: str = Field(description="quantity of interest (below)",
                           json_schema_extra={"short": "-Q", "metavar": "NAME"})
