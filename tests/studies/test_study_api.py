@@ -1,5 +1,5 @@
-"""Each study's typed API: its ``Options`` name exactly the options of its command line (so
-``Options.from_args`` loses none and the job service can build them), a dict of options
+"""Each study's typed API: its ``Options`` model is exactly the options of its command line
+(the parser is generated from it), a dict of options
 becomes typed options through the registry, and a cancel or a progress callback reaches a
 study through ``run`` without signals."""
 from __future__ import annotations
