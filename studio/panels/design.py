@@ -181,7 +181,7 @@ class DesignPanel(BrushSelector, DesignFiles):
                 self._show_errors(msgs)
                 self._reset_box(f)
                 return False
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             self._clear_errors()
             self.set_mode("design", redraw=False)
             self.redraw_design()
@@ -219,7 +219,7 @@ class DesignPanel(BrushSelector, DesignFiles):
     def set_design(self, scene) -> None:
         """Replace the whole design (a preset, an upload) by a validated engine.Scene."""
         with self.lock:
-            self.scene = us.scene_dict(scene)
+            self.hold_design(scene)
             self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
             self.sel = us.Selection()
             for md in (self.md_brush, self.md_body):  # notes on the previous design
@@ -402,7 +402,7 @@ class DesignPanel(BrushSelector, DesignFiles):
             if not v.ok:
                 self._show_errors({"body_position": [p.message for p in v.problems]})
                 return
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             if uv.n_design_segments(self.scene) <= uv.MAX_OVERLAP_CHECK_SEGMENTS:
                 self.redraw_design()  # (the overlap check follows the body)
             else:
@@ -419,7 +419,7 @@ class DesignPanel(BrushSelector, DesignFiles):
             new["name"] = str(event.target.value)
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self._update_summary()
 
     def _on_material_preset(self, event) -> None:
@@ -433,7 +433,7 @@ class DesignPanel(BrushSelector, DesignFiles):
                 return
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self._clear_errors()
                 self.set_mode("design", redraw=False)
                 self.redraw_design()
@@ -458,7 +458,7 @@ class DesignPanel(BrushSelector, DesignFiles):
             new = us.add_body(self.scene)
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self.sel.body = len(self.scene["bodies"]) - 1
                 self.set_mode("design", redraw=False)
                 self.redraw_design()
@@ -481,7 +481,7 @@ class DesignPanel(BrushSelector, DesignFiles):
             if not v.ok:
                 self._set_note(self.md_body, "; ".join(p.message for p in v.problems))
                 return
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             self.sel.body = 0
             self.set_mode("design", redraw=False)
             self.redraw_design()
