@@ -54,6 +54,19 @@ class StudyOptions(BaseModel):
     no_progress: bool = Field(False, description="no progress bar",
                               json_schema_extra={"group": "output and execution"})
 
+    @model_validator(mode="before")
+    @classmethod
+    def _text_lists(cls, data):
+        """A list option given as text (``angles="45,60"``, as typed on the command line or
+        in an older job's options) is split at commas and spaces."""
+        if isinstance(data, dict):
+            for name, info in cls.model_fields.items():
+                value = data.get(name)
+                if isinstance(value, str) and _kind(info.annotation)[0] == "list" \
+                        and _kind(_kind(info.annotation)[1])[0] != "str":
+                    data = {**data, name: _typed_text(info.annotation, _split_list(value))}
+        return data
+
     @model_validator(mode="after")
     def _one_execution(self):
         if self.scheduler is not None and self.workers is not None:
