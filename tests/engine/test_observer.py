@@ -34,8 +34,8 @@ def test_the_observer_gets_what_the_recorder_writes(tiny_scene, tmp_path):
     result = engine.run(_system(tiny_scene), output=path, observer=Counting())
     assert result.status == "completed" and result.frames == len(calls) > 5
     with engine.open_result(path) as r:
-        assert sorted(r.channels) == sorted(obs._rows)
-        for name in r.channels:
+        assert sorted(r.channels()) == sorted(obs._rows)
+        for name in r.channels():
             # the same numbers exactly: one frame dict feeds both, cast to the same dtype
             assert np.array_equal(obs.series(name), r.series(name)), name
             assert obs.series(name).dtype == r.series(name).dtype, name
