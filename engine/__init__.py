@@ -37,7 +37,7 @@ _EXPORTS = {
     "build": "build", "System": "build",
     "run": "run", "RunResult": "run", "Progress": "run", "energies": "observables",
     "angular_momentum": "observables", "linear_momentum": "observables", "run_steps": "run",
-    "open_result": "results", "ResultFile": "results",
+    "open_result": "results", "ResultFile": "results", "MemoryObserver": "observe",
     "prescribe_motion": "motion", "estimate": "estimate", "Cost": "estimate",
     "BrushStudioError": "errors", "SceneError": "errors", "InstabilityError": "errors",
 }
@@ -45,7 +45,7 @@ _EXPORTS = {
 __all__ = ["Scene", "SCHEMA_VERSION", "load_scene", "parse_scene", "save_scene", "build",
            "System", "run", "RunResult", "Progress", "open_result", "ResultFile",
            "prescribe_motion", "estimate", "Cost", "energies", "angular_momentum",
-           "linear_momentum", "run_steps",
+           "linear_momentum", "run_steps", "MemoryObserver",
            "BrushStudioError", "SceneError", "InstabilityError"]
 
 

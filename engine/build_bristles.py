@@ -2,8 +2,8 @@
 brush, brush after brush and bristle after bristle, row by row.
 
 The rest geometry is :mod:`engine.layout`'s (the studio draws the same); here it gets its
-physics: node masses and twist inertias of the frustum segments, the exact frustum bond
-stiffnesses (:func:`frustum_bond_stiffness`) and their damping, and the roots clamped in the
+physics: node masses and twist inertias of the frustum segments and the exact frustum bond
+stiffnesses (:mod:`engine.element`, which the estimate uses too) and their damping, and the roots clamped in the
 world or to the body the brush is mounted on.
 """
 from __future__ import annotations
@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .element import frustum_bond_stiffness, node_masses
 from .layout import BristleLayout, brush_layout, quat_conj, quat_mul, quat_to_matrix, rotate_rows
 from .spec import Scene
 from .state import Bodies, Bonds, Nodes, Roots
@@ -46,47 +47,6 @@ class BristlePart:
     node_material: np.ndarray   # (N,) material index
 
 
-def frustum_bond_stiffness(E, G, r0, r1, length):
-    """Stiffnesses of the bond between nodes of radii ``r0`` (node i) and ``r1`` (node j), a
-    linearly tapered solid circular Euler-Bernoulli frustum of ``length`` (arrays or floats):
-    ``(kn, ks, kb, ksb, kt)`` for the energy of ``bonds._bond_eval``.
-
-    Axial and twist are the exact frustum compliances, ``1/kn = int dx / (E A(x))`` and
-    ``1/kt = int dx / (G J(x))``: ``kn = E pi r0 r1 / L``, ``kt = G pi/2 * 3 r0^3 r1^3 /
-    (L (r0^2 + r0 r1 + r1^2))`` (seed eq. 3.1 for a uniform bond).
-
-    Bending: the bond's energy in one plane is ``1/2 ks d^2 + ksb d phi + 1/2 kb phi^2`` with
-    ``d`` the midpoint shear displacement and ``phi`` the relative rotation, whose conjugate
-    forces are the shear force V and the bending moment at the midpoint. For a beam whose
-    node i is clamped these are ``[d, phi] = C [V, M_mid]`` with the exact flexibility
-
-        C = int_0^L [xi^2, xi; xi, 1] / (E I(x)) dx,   xi = L/2 - x,
-
-    and the stiffness is ``C^-1``. With ``I = pi r^4 / 4`` and r linear in x the integrals are
-    rational in r0, r1 (E0 = E pi r0^4 / 4, beta = r1 / r0):
-    ``C = [L^3 (b^2 - b + 1) / 12, L^2 (b^2 - 1) / 6; ., L (b^2 + b + 1) / 3] / (E0 b^3)``,
-    determinant ``L^4 / (12 E0^2 b^4)``, so
-
-        ks  = E pi r0 r1 (r0^2 + r0 r1 + r1^2) / L^3
-        kb  = E pi r0 r1 (r0^2 - r0 r1 + r1^2) / (4 L)
-        ksb = E pi r0 r1 (r0^2 - r1^2) / (2 L^2)
-
-    (uniform: ``12 E I / L^3``, ``E I / L``, 0, seed eq. 3.1). The element is then the exact
-    Euler-Bernoulli stiffness of the frustum for any end loads, so a tapered cantilever under
-    tip loads is exact at any resolution, as the uniform one already was; ``ks kb - ksb^2 =
-    3 (E pi r0^2 r1^2)^2 / (4 L^4) > 0``.
-    """
-    s2 = r0 * r0 + r1 * r1
-    p = r0 * r1
-    e = E * math.pi * p
-    kn = e / length
-    ks = e * (s2 + p) / length ** 3
-    kb = e * (s2 - p) / (4.0 * length)
-    ksb = e * (r0 * r0 - r1 * r1) / (2.0 * length ** 2)
-    kt = G * math.pi / 2.0 * 3.0 * p ** 3 / (length * (s2 + p))
-    return kn, ks, kb, ksb, kt
-
-
 def brush_layout_of(scene: Scene, brush) -> BristleLayout:
     """The rest layout (``engine.layout``) of one of the scene's brushes, in world
     coordinates: the base pose is relative to the mount body's pose when it has one."""
@@ -109,15 +69,10 @@ def _bristle_physics(material, r_node: np.ndarray, seg_len: float) -> dict:
     of each bond with its two nodes' reduced mass; the root's mass only for the first)."""
     E = material.youngs_modulus
     G = E / (2.0 * (1.0 + material.poisson_ratio))
-    rho = material.density
     zb = material.bond_damping
     n = len(r_node)
     r0, r1 = r_node[:-1], r_node[1:]
-    seg_mass = rho * math.pi * seg_len * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0  # frustum
-    m_node = np.zeros(n)
-    m_node[:-1] += 0.5 * seg_mass
-    m_node[1:] += 0.5 * seg_mass
-    I_node = 0.5 * m_node * r_node ** 2  # isotropic: the node's own twist inertia
+    m_node, I_node = node_masses(material.density, r_node, seg_len)
     kn, ks, kb, ksb, kt = frustum_bond_stiffness(E, G, r0, r1, seg_len)
     mi, mj = m_node[:-1], m_node[1:]
     meff = np.where(np.arange(n - 1) == 0, mj, mi * mj / (mi + mj))

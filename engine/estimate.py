@@ -92,22 +92,12 @@ def shape_triangles(shape, mesh_triangles=None) -> Optional[int]:
     return None
 
 
-def _frustum(E, G, r0, r1, length):
-    """The bond stiffnesses of ``build_bristles.frustum_bond_stiffness`` (the same formulas;
-    a test checks they agree), here so that this module does not import the build."""
-    s2 = r0 * r0 + r1 * r1
-    p = r0 * r1
-    e = E * math.pi * p
-    return (e / length, e * (s2 + p) / length ** 3, e * (s2 - p) / (4.0 * length),
-            e * (r0 * r0 - r1 * r1) / (2.0 * length ** 2),
-            G * math.pi / 2.0 * 3.0 * p ** 3 / (length * (s2 + p)))
-
-
 def _bristle_omega2(scene: Scene, brush) -> float:
     """The largest Gershgorin bound of omega^2 over one bristle of ``brush``, every node
     charged the most contacts it could have."""
     import numpy as np
 
+    from .element import frustum_bond_stiffness, node_masses
     from .timestep import equalizing_scales, node_bounds
 
     mat = scene.materials[brush.material]
@@ -117,12 +107,8 @@ def _bristle_omega2(scene: Scene, brush) -> float:
     r_node = brush.root_radius + (brush.tip_radius - brush.root_radius) * np.linspace(0, 1, n)
     seg = brush.bristle_length / (n - 1)
     r0, r1 = r_node[:-1], r_node[1:]
-    seg_mass = rho * math.pi * seg * (r0 * r0 + r0 * r1 + r1 * r1) / 3.0
-    m = np.zeros(n)
-    m[:-1] += 0.5 * seg_mass
-    m[1:] += 0.5 * seg_mass
-    inertia = 0.5 * m * r_node ** 2
-    kn, ks, kb, ksb, kt = _frustum(E, G, r0, r1, seg)
+    m, inertia = node_masses(rho, r_node, seg)
+    kn, ks, kb, ksb, kt = frustum_bond_stiffness(E, G, r0, r1, seg)
     bi, bj = np.arange(n - 1), np.arange(1, n)
     free = np.ones(n, bool)
     free[0] = False  # the root is clamped

@@ -22,6 +22,7 @@ from .diagnosis import dt_cause, instability
 from .errors import InstabilityError
 from .observables import energies
 from .output_paths import check_output_file
+from .observe import observer_calls
 from .recorder import Recorder
 from .state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
                     OVERFLOW_PAIRS, STAGES, timed_slots)
@@ -70,11 +71,16 @@ def _is_cancelled(cancel) -> bool:
 
 # ----------------------------------------------------------------------------- run
 def run(system: System, until: Optional[float] = None,
-        output: Union[str, Path, None] = None,
+        output: Union[str, Path, None, bool] = None,
         on_progress: Optional[Callable[[Progress], None]] = None,
-        cancel=None, progress_interval: float = 0.5) -> RunResult:
+        cancel=None, progress_interval: float = 0.5, observer=None) -> RunResult:
     """Advance ``system`` to simulated time ``until`` (default: the scene's run.duration),
-    recording to the HDF5 file ``output`` (a temporary file if None).
+    recording to the HDF5 file ``output`` (a temporary file if None; no file if False).
+
+    ``observer`` (:mod:`engine.observe`: a callable ``observer(frame)``, or an object with
+    ``append(frame)`` and optionally ``begin(channels, static)``, e.g.
+    :class:`engine.MemoryObserver`) receives every recorded frame in memory, the same
+    frames the HDF5 recorder (itself one observer) writes.
 
     ``on_progress`` is called with a :class:`Progress` at most every ``progress_interval``
     seconds and at the end. ``cancel`` is a ``threading.Event`` (or any object with
@@ -89,10 +95,13 @@ def run(system: System, until: Optional[float] = None,
     t_start = system.time
     total_steps = max(0, int(round((until - t_start) / dt)))
     rec_every = max(1, int(round(sc.run.record_interval / dt)))
-    if output is None:
-        output = Path(tempfile.mkdtemp(prefix="brush-studio-")) / "result.h5"
-    # a regular file only (never a device or a named pipe); its folders are created
-    output = check_output_file(output, "result file", parents=True)
+    if output is False:
+        output = None
+    else:
+        if output is None:
+            output = Path(tempfile.mkdtemp(prefix="brush-studio-")) / "result.h5"
+        # a regular file only (never a device or a named pipe); its folders are created
+        output = check_output_file(output, "result file", parents=True)
     channels, static = run_channels(system)
     attrs = {"dt": dt, "dt_limited_by": system.dt_limited_by, "dt_stable": system.dt_stable,
              "brush_names": [b.name for b in system.brushes],
@@ -116,7 +125,16 @@ def run(system: System, until: Optional[float] = None,
     done = 0
     chunk_cap = 256
     below_since = None  # the stop condition's quantity has been below its value since
-    recorder = Recorder(output, sc.to_json(), channels, static, attrs)
+    observers = []
+    recorder = None
+    if output is not None:
+        recorder = Recorder(output, sc.to_json(), channels, static, attrs)
+        observers.append(recorder.append)
+    begin, append = observer_calls(observer)
+    if begin is not None:
+        begin(channels, static)
+    if append is not None:
+        observers.append(append)
     # numba compiles (a cold cache: minutes) are timed apart and left out of the speed and
     # the stage times (they made a first run's bristle_body stage 116 s against 29 s warm)
     clock = CompileClock().__enter__()
@@ -125,7 +143,8 @@ def run(system: System, until: Optional[float] = None,
             nonlocal frames, record_wall, e_scale, balance0
             r0, compiled0 = _time.perf_counter(), clock.seconds
             fr = run_frame(system, channels)
-            recorder.append(fr)
+            for append_frame in observers:
+                append_frame(fr)
             frames += 1
             record_wall += _time.perf_counter() - r0 - (clock.seconds - compiled0)
             if "energy/total" in fr and system.flags.track_energy:
@@ -198,7 +217,8 @@ def run(system: System, until: Optional[float] = None,
                            steps=system.steps - steps0, stage_time0=stage_time0,
                            timed0=timed0, record_wall=record_wall, frames=frames,
                            compile_wall=clock.seconds)
-        recorder.close("failed", summary, {"message": f"{type(exc).__name__}: {exc}"})
+        if recorder is not None:
+            recorder.close("failed", summary, {"message": f"{type(exc).__name__}: {exc}"})
         raise
     clock.__exit__()
     wall = _time.perf_counter() - wall0
@@ -208,7 +228,8 @@ def run(system: System, until: Optional[float] = None,
     err_dict = error.as_dict() if error is not None else None
     if err_dict:
         summary["error"] = err_dict
-    recorder.close(status, summary, err_dict)
+    if recorder is not None:
+        recorder.close(status, summary, err_dict)
     if on_progress is not None and status != "completed":
         on_progress(_progress(system, until, done, total_steps, wall - clock.seconds))
     result = RunResult(status=status, summary=summary, path=output, error=err_dict,

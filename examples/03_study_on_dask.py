@@ -30,9 +30,9 @@ from studio.studies.registry import get
 def main():
     out_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "example_output/03_study_on_dask")
 
-    wedge = get("wedge")   # any study by its command name: .options (a dataclass), .run
+    wedge = get("wedge")   # any study by its command name: .options (a pydantic model), .run
     options = wedge.options(
-        angles="45,60",      # the presets wedge_45 and wedge_60
+        angles=[45, 60],     # the presets wedge_45 and wedge_60
         depth_mm=2,          # full depth, in 1 mm steps
         nodes=3,             # nodes per bristle
         no_unload=True,      # loading only

@@ -46,7 +46,8 @@ class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
         self.jobs = jobs
         self.data_dir = Path(data_dir) if data_dir is not None else None
         self.lock = threading.RLock()
-        self.scene: dict = us.scene_dict(scene)
+        self.design = scene           # the design: a validated engine.Scene, parsed once per edit
+        self.scene: dict = us.scene_dict(scene)         # its dict: the fields' working copy
         self.loaded_scene: dict = us.scene_dict(scene)  # what has_edits compares with
         self.sel = us.Selection()
         self.errors: dict[str, list[str]] = {}
@@ -73,6 +74,13 @@ class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
         self.refresh_fields()
         if note:
             self._set_note(self.md_preset, note)
+
+    def hold_design(self, scene) -> None:
+        """Hold ``scene``, the engine.Scene an edit's validation just parsed, as the design
+        (the cost line and the saved JSON use it: no second parse) and its dict as the
+        fields' working copy."""
+        self.design = scene
+        self.scene = us.scene_dict(scene)
 
     def _clients(self) -> list:
         """The clients this session draws for (one, or every tab for a shared session)."""

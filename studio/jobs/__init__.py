@@ -47,7 +47,7 @@ script in each worker: a script that creates a JobManager must do so under
 from __future__ import annotations
 
 from ..studies.registry import (SCENE_OPTIONS, SERVER_OPTIONS, STUDIES, StudyOptionError,
-                                study_argv, study_options)
+                                make_options, study_options, study_schema)
 from .limits import LimitError, Limits, planned_runs
 from .manager import JobManager
 from .meshes import DEFAULT_MAX_TRIANGLES, MESH_FORMATS, MESH_PREFIX, MeshError, MeshStore
@@ -58,4 +58,4 @@ __all__ = ["JobManager", "JobInfo", "JobStore", "StorageError", "Limits", "Limit
            "planned_runs", "MeshStore", "MeshError", "STATUSES",
            "FINAL_STATUSES", "MESH_FORMATS", "MESH_PREFIX", "DEFAULT_MAX_TRIANGLES",
            "STUDIES", "SCENE_OPTIONS", "SERVER_OPTIONS", "STUDY_LOG", "StudyOptionError",
-           "study_argv", "study_options", "jsonable", "cpu_count"]
+           "make_options", "study_options", "study_schema", "jsonable", "cpu_count"]

@@ -86,15 +86,15 @@ _COUNTS = ("samples", "random_seeds")
 
 
 def planned_runs(options) -> int:
-    """An upper estimate of the runs a study's typed ``Options`` plan: the product of its
+    """An upper estimate of the runs a study's ``Options`` model plans: the product of its
     lists' lengths (presets, angles, levels, cases, ...) and its sample counts."""
     runs = 1
-    for f in dataclasses.fields(options):
-        v = getattr(options, f.name)
+    for name in type(options).model_fields:
+        v = getattr(options, name)
         if isinstance(v, (list, tuple)):
             runs *= max(1, len(v))
-        elif f.name in _LIST_TEXT and isinstance(v, str):
+        elif name in _LIST_TEXT and isinstance(v, str):
             runs *= max(1, len([x for x in v.split(",") if x.strip()]))
-        elif f.name in _COUNTS and isinstance(v, int) and not isinstance(v, bool):
+        elif name in _COUNTS and isinstance(v, int) and not isinstance(v, bool):
             runs *= max(1, v)
     return runs

@@ -176,13 +176,14 @@ class JobManager(WorkerMonitor):
     def submit_study(self, study: str, options: Optional[dict] = None,
                      name: Optional[str] = None) -> str:
         """Queue a study (``wedge``, ``spin``, ``refinement``, ``sensitivity``,
-        ``montecarlo``, ``rod``, ``convergence``) with ``options`` (its command-line options
-        as a dict, see :func:`study_argv`); returns the job id. Raises
+        ``montecarlo``, ``rod``, ``detumble``, ``convergence``) with ``options`` (its
+        options model's fields as a dict, see :func:`make_options`); returns the job id.
+        The validated model's dict is what the job stores and its worker runs. Raises
         :class:`StudyOptionError` for an unknown study or a bad option. The study writes its
         files into ``DATA/runs/<id>/study/`` (:meth:`study_files`); it runs on one local
         Dask worker, or on the manager's ``scheduler``."""
-        typed, argv = make_options(study, options, scheduler=self.scheduler,
-                                   designs_dir=self.data_dir / "designs")
+        typed = make_options(study, options, scheduler=self.scheduler,
+                             designs_dir=self.data_dir / "designs")
         runs = planned_runs(typed)
         if self.limits.max_study_runs is not None and runs > self.limits.max_study_runs:
             raise LimitError("max_study_runs", runs, self.limits.max_study_runs,
@@ -190,20 +191,17 @@ class JobManager(WorkerMonitor):
                              f"{self.limits.max_study_runs} per study (--max-study-runs)", 422)
         self._check_queue()
         self.quota.admit(0, "a study")
-        resolved = options_to_dict(typed)
+        stored = options_to_dict(typed)
         if name is None or not str(name).strip():
             name = f"{study} study"
         name = str(name).strip()[:200]
         job_id = uuid.uuid4().hex[:12]
-        spec = {"study": study, "options": jsonable(options or {}), "argv": argv,
-                "resolved": resolved}
+        spec = {"study": study, "options": stored}
         self._create_job(job_id, {"study_job.json": json.dumps(spec, indent=1) + "\n",
                                   "study/": None},
                          "INSERT INTO jobs (id, name, status, created, scene, kind, study, "
-                         "options, argv, resolved, estimate) VALUES (?, ?, 'queued', ?, '', "
-                         "'study', ?, ?, ?, ?, ?)",
-                         (job_id, name, time.time(), study, json.dumps(spec["options"]),
-                          json.dumps(argv), json.dumps(resolved),
+                         "options, estimate) VALUES (?, ?, 'queued', ?, '', 'study', ?, ?, ?)",
+                         (job_id, name, time.time(), study, json.dumps(stored),
                           json.dumps({"planned_runs": runs})))
         return job_id
 

@@ -21,7 +21,6 @@ import time
 import traceback
 from typing import Optional
 
-from ..studies.registry import make_options, options_to_dict
 from .store import FINAL_STATUSES, StorageError, storage_reason
 from .worker import WorkerHandle, describe_exit, disk_full_reason, finalize_killed_result
 
@@ -109,11 +108,11 @@ class WorkerMonitor:
         for w in idle:
             with self._lock:
                 row = self._db.execute(
-                    "SELECT seq, id, scene, kind, study, argv, resolved FROM jobs WHERE "
+                    "SELECT seq, id, scene, kind, study, options, resolved FROM jobs WHERE "
                     "status = 'queued' ORDER BY seq LIMIT 1").fetchone()
                 if row is None:
                     return
-                seq, job_id, scene_json, kind, study, argv, resolved = row
+                seq, job_id, scene_json, kind, study, stored, resolved = row
                 try:
                     cur = self._db.execute(
                         "UPDATE jobs SET status = 'running', started = ?, worker_pid = ? "
@@ -133,11 +132,8 @@ class WorkerMonitor:
                 if kind == "study":
                     out = self.runs_dir / job_id / "study"
                     out.mkdir(parents=True, exist_ok=True)
-                    argv = json.loads(argv or "[]") + ["--output", str(out)]
-                    argv += ["--scheduler", self.scheduler] if self.scheduler else \
-                        ["--workers", "1"]
                     msg = ("study", seq, job_id, study,
-                           self._study_options(job_id, study, resolved), argv, str(out))
+                           self._study_options(study, stored, resolved), str(out))
                 else:
                     h5 = self.runs_dir / job_id / "result.h5"
                     h5.parent.mkdir(parents=True, exist_ok=True)
@@ -153,17 +149,15 @@ class WorkerMonitor:
             except (OSError, ValueError):
                 pass  # the worker died: its sentinel reports it and fails the job
 
-    def _study_options(self, job_id: str, study: str, resolved: Optional[str]) -> dict:
-        """A study job's typed options as data, run on this manager's scheduler (or one
-        worker in the job's process). A job queued by an older version has none stored:
-        they are made again from the options it was submitted with."""
-
-        if resolved:
-            data = json.loads(resolved)
-        else:
-            data = options_to_dict(make_options(study, self.get(job_id).options,
-                                                designs_dir=self.data_dir / "designs")[0])
-        data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1)
+    def _study_options(self, study: str, stored: Optional[str], resolved: Optional[str]
+                       ) -> dict:
+        """A study job's options (the validated model's dict it was stored with), run on
+        this manager's scheduler (or one worker in the job's process). A job queued by an
+        older version kept them in ``resolved``."""
+        data = json.loads(resolved or stored or "{}")
+        data.update(scheduler=self.scheduler, workers=None if self.scheduler else 1,
+                    no_progress=True)
+        data.pop("quiet", None)
         return data
 
     def _drain(self, w: WorkerHandle) -> None:

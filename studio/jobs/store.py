@@ -84,6 +84,8 @@ _COLUMNS = ("id", "name", "status", "created", "started", "finished", "progress"
 _JSON_COLUMNS = {"stages": dict, "summary": dict, "assembled": list, "warnings": list,
                  "options": dict, "estimate": dict}
 # columns added after the first release: added to an older database when it is opened
+# (``argv`` and ``resolved`` are no longer written: a study job stores its validated options
+# model's dict in ``options``; ``resolved`` is still read for jobs queued by older versions)
 _ADDED_COLUMNS = (("kind", "TEXT NOT NULL DEFAULT 'run'"), ("study", "TEXT"),
                   ("options", "TEXT NOT NULL DEFAULT '{}'"), ("argv", "TEXT"),
                   ("message", "TEXT"), ("resolved", "TEXT"), ("estimate", "TEXT"),

@@ -115,8 +115,8 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
                 _, seq, job_id, scene_json, h5_path = msg
                 _worker_run(conn, cancel_seq, parent_pid, seq, job_id, scene_json, h5_path)
             else:
-                _, seq, job_id, study, options, argv, out_dir = msg
-                _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, argv,
+                _, seq, job_id, study, options, out_dir = msg
+                _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options,
                               out_dir)
         except (BrokenPipeError, EOFError, OSError):
             return  # the manager is gone
@@ -199,11 +199,13 @@ class _JobCancel:
         return self.cancel_seq.value == self.seq or os.getppid() != self.parent_pid
 
 
-def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, argv,
+def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options,
                   out_dir) -> None:
-    """Run a study in this process through its typed API (``registry.get(study).run``):
-    its progress callback reports to the manager, its cancel is the job's; what it prints
-    goes into ``out_dir/log.txt``."""
+    """Run a study in this process through its typed API (``registry.get(study).run`` of
+    the options model checked from the stored dict ``options``): its progress callback
+    reports to the manager, its cancel is the job's; what it prints goes into
+    ``out_dir/log.txt``. Bad input (:class:`StudyInputError`, :class:`StudyOptionError`)
+    is the job's error, whole; the result's summary goes into the job's summary."""
     import contextlib
 
     from ..exit_codes import EXIT_OK, describe
@@ -221,16 +223,22 @@ def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, arg
         except (OSError, ValueError):
             pass
 
-    code, error = 1, None
+    from ..exit_codes import EXIT_BAD_INPUT
+    from ..studies.api import StudyInputError
+
+    code, error, result = 1, None, None
     with open(log_path, "a", buffering=1) as log, contextlib.redirect_stdout(log), \
             contextlib.redirect_stderr(log):
         entry = registry.get(study)
-        print("$ " + " ".join(w for w in ("brush-studio", entry.command, study) if w) + " "
-              + " ".join(argv), flush=True)
+        print("$ " + " ".join(w for w in ("brush-studio", entry.command, study) if w)
+              + " with options " + json.dumps(options, sort_keys=True), flush=True)
         try:
             result = entry.run(entry.options_from_dict(options), out, progress=progress,
                                cancel=cancel)
             code = result.exit_code
+        except (StudyInputError, registry.StudyOptionError) as exc:  # bad input: whole
+            code, error = EXIT_BAD_INPUT, f"bad input: {exc}"
+            print(f"error: {exc}", flush=True)
         except Exception as exc:  # a bug in a study: its traceback in the log
             error = f"{type(exc).__name__}: {exc}"
             traceback.print_exc()
@@ -246,6 +254,9 @@ def _worker_study(conn, cancel_seq, parent_pid, seq, job_id, study, options, arg
             (f":\n{detail}" if detail else "")
     summary = {"exit_code": code, "wall_s": time.time() - t0, "study": study,
                "files": len(_study_files(out))}
+    if result is not None:
+        summary["tables"] = sorted(result.tables)
+        summary["figures"] = [p.name for p in result.figures]
     study_json = out / "study.json"
     if study_json.is_file():
         try:

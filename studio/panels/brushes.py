@@ -88,7 +88,7 @@ class BrushSelector:
             self._set_note(self.md_brush, "refused: " + "; ".join(p.message
                                                                  for p in v.problems))
             return False
-        self.scene = us.scene_dict(v.scene)
+        self.hold_design(v.scene)
         self.sel.brush = selected
         self._clear_errors()
         self.set_mode("design", redraw=False)

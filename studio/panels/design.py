@@ -194,7 +194,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
                     self._reset_box(f)
                 return False
             self._edit_key = key   # (undo: successive keystrokes in one box are one edit)
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             self._clear_errors()
             self.set_mode("design", redraw=False)
             self.redraw_design()
@@ -232,7 +232,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
     def set_design(self, scene) -> None:
         """Replace the whole design (a preset, an upload) by a validated engine.Scene."""
         with self.lock:
-            self.scene = us.scene_dict(scene)
+            self.hold_design(scene)
             self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
             self.loaded_label = f"{self.scene.get('name', 'scene')!r} was loaded"
             self._history_changed()
@@ -417,7 +417,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
             if not v.ok:
                 self._show_errors({"body_position": [p.message for p in v.problems]})
                 return
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             if uv.n_design_segments(self.scene) <= uv.MAX_OVERLAP_CHECK_SEGMENTS:
                 self.redraw_design()  # (the overlap check follows the body)
             else:
@@ -434,7 +434,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
             new["name"] = str(event.target.value)
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self._update_summary()
 
     def _on_material_preset(self, event) -> None:
@@ -448,7 +448,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
                 return
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self._clear_errors()
                 self.set_mode("design", redraw=False)
                 self.redraw_design()
@@ -473,7 +473,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
             new = us.add_body(self.scene)
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
                 self.sel.body = len(self.scene["bodies"]) - 1
                 self.set_mode("design", redraw=False)
                 self.redraw_design()
@@ -496,7 +496,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
             if not v.ok:
                 self._set_note(self.md_body, "; ".join(p.message for p in v.problems))
                 return
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             self.sel.body = 0
             self.set_mode("design", redraw=False)
             self.redraw_design()

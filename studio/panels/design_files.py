@@ -39,7 +39,7 @@ class DesignFiles:
         up = event.target.value
         with self.lock:
             if not (self.scene.get("bodies") or []):
-                self.scene = us.scene_dict(us.validate(us.add_body(self.scene)).scene)
+                self.hold_design(us.validate(us.add_body(self.scene)).scene)
             try:
                 if self.jobs is not None:
                     info = self.jobs.add_mesh(up.content, up.name)
@@ -67,7 +67,7 @@ class DesignFiles:
             if not v.ok:
                 self._set_note(self.md_body, "; ".join(p.message for p in v.problems))
                 return
-            self.scene = us.scene_dict(v.scene)
+            self.hold_design(v.scene)
             self._set_note(self.md_body, f"mesh {up.name!r}: {len(mesh.faces):,} triangles, "
                            f"{'closed' if mesh.is_watertight else 'open (no density)'}, "
                            f"scale {scale:g}")
@@ -131,9 +131,8 @@ class DesignFiles:
         self._set_note(self.md_preset, f"loaded {up.name}")
 
     def design_json(self) -> str:
-        import engine
-
-        return engine.parse_scene(self.scene).to_json(indent=2) + "\n"
+        """The design as scene JSON (the held, validated Scene: no parse)."""
+        return self.design.to_json(indent=2) + "\n"
 
     def _on_share(self, event) -> None:
         """Store the design and show a link that opens it in a new session (the receiver

@@ -4,7 +4,6 @@ job's latest frames into the view. A mixin of :class:`studio.app.Studio`."""
 from __future__ import annotations
 
 import copy
-import json
 from typing import Optional
 
 from . import run_cost as rcost
@@ -25,7 +24,7 @@ class RunPanel:
     recorded channels and the warning under dt."""
 
     def _build_run_gui(self, gui) -> None:
-        self._cost_key: Optional[str] = None
+        self._cost_key = None  # the Scene the cost line was made for
         self.run_cost: Optional[rcost.RunCost] = None
         self._build_run_settings_gui(gui)
         with self.tab_run:
@@ -71,7 +70,7 @@ class RunPanel:
             new["run"]["channels"] = [c for c, cb in self.cb_channels.items() if cb.value]
             v = us.validate(new)
             if v.ok:
-                self.scene = us.scene_dict(v.scene)
+                self.hold_design(v.scene)
             self._cost_key = None  # (refused: the boxes go back to the design's channels)
         self._update_run_cost()
 
@@ -79,17 +78,16 @@ class RunPanel:
         """Recompute the cost line, the dt warning and the channel boxes when the design
         changed (called by the poller and after an edit here)."""
         with self.lock:
-            key = json.dumps(self.scene, sort_keys=True, default=str)
-            if key == self._cost_key:
+            design = self.design  # the validated Scene of the last edit: not parsed again
+            if design is self._cost_key:
                 return
-            self._cost_key = key
-            scene = copy.deepcopy(self.scene)
-        chosen = set(scene["run"].get("channels") or ())
+            self._cost_key = design
+        chosen = set(design.run.channels or ())
         for channel, cb in self.cb_channels.items():
             if cb.value != (channel in chosen):
                 cb.value = channel in chosen
         try:
-            rc = rcost.run_cost(scene, rcost.measured_rate(self.jobs))
+            rc = rcost.run_cost(design, rcost.measured_rate(self.jobs))
         except Exception as exc:  # (an invalid design: its fields say why)
             self.run_cost = None
             self.md_cost.content = f"No estimate: {_md_escape(str(exc).splitlines()[0])}"

@@ -68,11 +68,14 @@ def measured_rate(jobs) -> Optional[tuple[float, str]]:
     return None
 
 
-def run_cost(scene: dict, measured: Optional[tuple[float, str]] = None) -> RunCost:
-    """The cost of a design (a scene dict; raises ``engine.SceneError`` if it is invalid)."""
+def run_cost(scene, measured: Optional[tuple[float, str]] = None) -> RunCost:
+    """The cost of a design: the studio's validated ``engine.Scene`` (no second parse), or
+    a scene dict (parsed; raises ``engine.SceneError`` if it is invalid)."""
     import engine
 
-    cost = engine.estimate(engine.parse_scene(scene))
+    if isinstance(scene, dict):
+        scene = engine.parse_scene(scene)
+    cost = engine.estimate(scene)
     if measured is not None:
         rate, source = measured[0], f"measured by run `{measured[1]}`"
     else:

@@ -1,8 +1,9 @@
 """The studio's Studies tab: start a study as a job and look at what it wrote.
 
-The form offers the studies people start from the studio (:data:`FORMS`: wedge, spin,
-refinement, convergence) with a few key options each, plus an "other options" JSON field for
-the rest (any option of the study's command, docs/studies.md). Start submits the study through
+The form offers the studies people start from the studio (:data:`STUDY_NAMES`: wedge, spin,
+refinement, convergence), each generated from the study's options model (:func:`form_spec`:
+the command line's fields, defaults, units and help; a scene field starts on the current
+design), plus an "other options" JSON field (any option of the study, docs/studies.md). Start submits the study through
 the same :class:`studio.jobs.JobManager` as the HTTP API (``submit_study``: the study runs in
 a worker process, its files under ``DATA/runs/<id>/study/``). When it has finished, the tab
 shows its PNG plots as images, a convergence study's table (markdown) and log-log error
@@ -24,30 +25,15 @@ from .common import (NO_JOBS, PLOT_ASPECT, _fmt_s, _one_line, follow_job, job_of
                             set_job_choices)
 from ..study_charts import study_charts, study_eta
 
-#: study -> its form fields: (option name, kind, default, label). kind: preset | number |
-#: int | text | bool. The defaults are small enough to finish in seconds to a minute.
-FORMS: dict[str, list[tuple[str, str, Any, str]]] = {
-    "wedge": [("preset", "preset", "wedge_60", "preset"),
-              ("depth_mm", "number", 2.0, "depth [mm]"),
-              ("nodes", "int", 3, "nodes per bristle"),
-              ("no_unload", "bool", False, "loading only")],
-    "spin": [("cubes", "text", "20", "cube edges [mm]"),
-             ("configs", "text", "1", "brush configurations"),
-             ("n_nodes", "int", 4, "nodes per bristle"),
-             ("duration", "number", 0.2, "duration per run [s]"),
-             ("random_seeds", "int", 0, "random-tip runs")],
-    "refinement": [("preset", "preset", "wedge_60", "preset"),
-                   ("depth_mm", "number", 2.0, "depth [mm]"),
-                   ("levels", "text", "3,4", "nodes per bristle (levels)")],
-    "convergence": [("scene", "preset", "rod_weight_static", "scene preset"),
-                    ("quantity", "text", "tip_deflection", "quantity"),
-                    ("ladder", "text", "n_nodes=5,9,17", "ladder"),
-                    ("dt_factor", "text", "", "dt factors (optional)")],
-}
-STUDY_NAMES = tuple(FORMS)
-#: the first choice of every scene dropdown: the session's design as it is now (stored, then
-#: named to the study as ``design:<id>``, see ``studio.studies.registry``)
+#: the studies the tab offers; each form is generated from the study's options model
+#: (:func:`form_spec`): its fields, defaults, units and help are the command line's
+STUDY_NAMES = ("wedge", "spin", "refinement", "convergence")
+#: the first choice of every scene dropdown that takes any scene: the session's design as it
+#: is now (stored, then named to the study as ``design:<id>``, see
+#: ``studio.studies.registry``); the form starts on it when the studio has a design
 CURRENT_DESIGN = "(current design)"
+#: a dropdown's "leave it out" choice: the study's own default applies
+DEFAULT_CHOICE = "(default)"
 MAX_IMAGES = 6  # PNG plots shown for one study
 #: study -> its PNG plots an interactive chart (studio.study_charts) replaces in the tab
 CHARTED_PNGS = {"wedge": ("force_depth.png",), "spin": ("omega_*.png",),
@@ -58,37 +44,87 @@ class FormError(ValueError):
     """A form value that cannot be an option (shown beside the Start button)."""
 
 
+def _label(field: dict) -> str:
+    """``depth_mm`` with unit mm -> ``depth [mm]``; others their name with spaces."""
+    name, unit = field["name"], field.get("unit")
+    if unit:
+        suffix = "_" + unit.replace("/", "_per_")
+        base = name[:-len(suffix)] if name.endswith(suffix) else name
+        return f"{base.replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
+
+
+def form_spec(study: str) -> list[dict]:
+    """The form of ``study``: its options model's fields less the execution options
+    (:func:`studio.studies.options.form_fields`), each with its ``label`` and ``widget``
+    (scene, number, text, bool, choice). Optional numbers are text fields: empty means the
+    study's default (the scene's own resolution, the profile's depth)."""
+    from ..studies.options import form_fields
+    from ..studies.registry import get
+
+    try:
+        fields = form_fields(get(study).options)
+    except Exception as exc:  # StudyOptionError: unknown study
+        raise FormError(str(exc)) from None
+    out = []
+    for f in fields:
+        f = dict(f, label=_label(f))
+        if f["scene"]:
+            f["widget"] = "scene"
+        elif f["kind"] == "bool":
+            f["widget"] = "bool"
+        elif f["kind"] == "choice":
+            f["widget"] = "choice"
+        elif f["kind"] in ("int", "float") and not f["optional"] and f["default"] is not None:
+            f["widget"] = "number"
+        else:
+            f["widget"] = "text"
+        out.append(f)
+    return out
+
+
+def _initial(field: dict):
+    """A widget's first value: the model's default in the widget's terms."""
+    d = field["default"]
+    if field["widget"] in ("scene", "choice"):
+        return DEFAULT_CHOICE if d in (None, []) else str(d)
+    if field["widget"] == "bool":
+        return bool(d)
+    if field["widget"] == "number":
+        return d
+    if isinstance(d, list):
+        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in d)
+    return "" if d is None else str(d)
+
+
 def form_options(study: str, values: dict, extra: str = "") -> dict:
-    """The options dict of ``study`` from the form's ``values`` (option name -> widget value)
-    and the "other options" JSON text ``extra`` (an object; its keys override the form's).
-    Empty text fields are left out (the study's default applies); a false flag too."""
-    if study not in FORMS:
-        raise FormError(f"unknown study {study!r}; one of {list(FORMS)}")
+    """The options dict of ``study`` from the form's ``values`` (option name -> widget
+    value) and the "other options" JSON text ``extra`` (an object; its keys override the
+    form's). Empty text fields, ``(default)`` choices and false flags are left out (the
+    study's default applies); the values are checked by the study's model when the job is
+    submitted (``JobManager.submit_study``), with the messages of the command line."""
+    spec = {f["name"]: f for f in form_spec(study)}
     out: dict = {}
-    for name, kind, _default, label in FORMS[study]:
-        if name not in values:
-            continue
-        v = values[name]
-        if kind == "bool":
+    for name, v in values.items():
+        f = spec.get(name)
+        if f is None:
+            raise FormError(f"{name}: not an option of study {study!r}")
+        if f["widget"] == "bool":
             if v:
                 out[name] = True
-        elif kind in ("number", "int"):
+        elif f["widget"] == "number":
             if v is None:
                 continue
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                raise FormError(f"{label}: {v!r} is not a number") from None
-            if not math.isfinite(x):
-                raise FormError(f"{label}: must be finite")
-            if kind == "int":
-                if x != int(x):
-                    raise FormError(f"{label}: {v!r} must be a whole number")
-                x = int(x)
-            out[name] = x
+            if isinstance(v, float) and not math.isfinite(v):
+                raise FormError(f"{f['label']}: must be finite")
+            if v != f["default"]:
+                out[name] = v
+        elif f["widget"] in ("scene", "choice"):
+            if v not in (None, "", DEFAULT_CHOICE, _initial(f)):
+                out[name] = [v] if f["kind"] == "list" else v
         else:
-            text = str(v).strip()
-            if text:
+            text = str(v).strip() if v is not None else ""
+            if text and text != _initial(f):
                 out[name] = text
     extra = (extra or "").strip()
     if extra:
@@ -197,27 +233,12 @@ class StudiesTab:
         self._list_md = ""
         self.fields: dict[str, dict[str, Any]] = {}
         presets = list(preset_names) or ["wedge_60"]
-        first = [CURRENT_DESIGN] if current_design is not None else []
         with tab:
             self.dd_study = gui.add_dropdown("study", STUDY_NAMES, initial_value="wedge")
             self.dd_study.on_update(lambda e: self._show_form())
-            for study, spec in FORMS.items():
-                handles = {}
-                for name, kind, default, label in spec:
-                    if kind == "preset":
-                        opts = tuple(first + (presets if default in presets
-                                              else [default] + presets))
-                        h = gui.add_dropdown(label, opts, initial_value=default)
-                    elif kind == "number":
-                        h = gui.add_number(label, float(default))
-                    elif kind == "int":
-                        h = gui.add_number(label, int(default), step=1)
-                    elif kind == "bool":
-                        h = gui.add_checkbox(label, bool(default))
-                    else:
-                        h = gui.add_text(label, str(default))
-                    handles[name] = h
-                self.fields[study] = handles
+            for study in STUDY_NAMES:
+                self.fields[study] = {f["name"]: self._widget(f, presets)
+                                      for f in form_spec(study)}
             self.tx_extra = gui.add_text("other options (JSON)", "")
             self.bt_start = gui.add_button("Start study", color="green")
             self.bt_start.on_click(lambda e: self.start())
@@ -240,6 +261,34 @@ class StudiesTab:
         self._show_form()
 
     # ----------------------------------------------------------------- form
+    def _widget(self, f: dict, presets: list[str]):
+        """The widget of form field ``f`` (:func:`form_spec`). A scene field that takes any
+        scene starts on the current design (its own resolution kept: the nodes field is
+        empty, the scene's); the studies' own presets (rod, spin) on ``(default)``."""
+        gui, label, hint = self.gui, f["label"], f["help"] or None
+        initial = _initial(f)
+        if f["widget"] == "scene":
+            first = [CURRENT_DESIGN] if (self.current_design is not None and f["design"]) \
+                else []
+            if first and initial == DEFAULT_CHOICE:
+                initial = CURRENT_DESIGN
+            opts = tuple(dict.fromkeys(first + [DEFAULT_CHOICE] + presets))
+            if initial not in opts:
+                opts = opts + (initial,)
+            return gui.add_dropdown(label, opts, initial_value=initial, hint=hint)
+        if f["widget"] == "choice":
+            opts = tuple(([DEFAULT_CHOICE] if f["optional"] else [])
+                         + [str(c) for c in f["choices"]])
+            return gui.add_dropdown(label, opts, initial_value=initial, hint=hint)
+        if f["widget"] == "bool":
+            return gui.add_checkbox(label, initial, hint=hint)
+        if f["widget"] == "number":
+            bounds = {k: f[b] for k, b in (("min", "ge"), ("max", "le")) if b in f}
+            if f["kind"] == "int":
+                return gui.add_number(label, int(initial), step=1, hint=hint, **bounds)
+            return gui.add_number(label, float(initial), hint=hint, **bounds)
+        return gui.add_text(label, initial, hint=hint)
+
     def _show_form(self) -> None:
         study = self.dd_study.value
         for s, handles in self.fields.items():

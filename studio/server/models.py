@@ -105,10 +105,17 @@ class StudyOption(BaseModel):
 
     name: str
     kind: str = Field(description="flag, value or list")
+    type: Optional[str] = Field(None, description="bool, int, float, str, choice or list")
+    item: Optional[str] = Field(None, description="a list's item type")
     help: str
     default: Any = None
     required: bool
     choices: Optional[list[Any]] = None
+    unit: Optional[str] = Field(None, description="the unit the value is given in")
+    ge: Optional[float] = None
+    gt: Optional[float] = None
+    le: Optional[float] = None
+    lt: Optional[float] = None
     preset: bool = Field(description="it names a preset (GET /api/presets)")
 
 

@@ -5,7 +5,8 @@ their output files."""
 
 from typing import Optional, Union
 
-from ..jobs import STUDIES, JobInfo, JobManager, StudyOptionError, jsonable, study_options
+from ..jobs import (STUDIES, JobInfo, JobManager, StudyOptionError, jsonable, study_options,
+                    study_schema)
 from .common import json_body
 from .models import ErrorAnswer, PurgeAnswer, StudyFiles, StudyOption, error_responses
 from .runs import Status
@@ -107,9 +108,21 @@ def studies_router(jobs: JobManager, guarded: list):
              summary="The studies and their options",
              response_model=dict[str, list[StudyOption]], responses=error_responses())
     def study_types():
-        """For each study, the options ``POST /api/studies`` accepts: name, kind (flag,
-        value, list), help, default, required, choices, and whether it names a preset."""
+        """For each study, the options ``POST /api/studies`` accepts (from the study's
+        options model): name, kind (flag, value, list), type, help, default, required,
+        choices, unit, bounds, and whether it names a preset."""
         return {s: study_options(s) for s in STUDIES}
+
+    @router.get("/api/study-types/{study}/schema", dependencies=guarded, tags=["studies"],
+                summary="The JSON schema of a study's options", response_model=dict,
+                responses=error_responses(404))
+    def study_type_schema(study: str):
+        """The JSON schema of the study's options model (the one declaration its command
+        line, the studio's form and ``POST /api/studies`` are checked by; ``scheduler``,
+        ``workers`` and ``no_progress`` are set by the server)."""
+        if study not in STUDIES:
+            raise HTTPException(404, f"no study {study!r}; one of {list(STUDIES)}")
+        return study_schema(study)
 
     @router.get("/api/studies/{job_id}", dependencies=guarded, tags=["studies"],
              summary="One study", response_model=JobInfo,

@@ -1,18 +1,23 @@
 """The typed face of every study: ``Options`` in, :class:`StudyResult` out.
 
-Each study module defines a dataclass ``Options`` (its parameters; the common execution
-options come from :class:`ExecutionOptions`) and::
+Each study module defines a pydantic model ``Options`` (its parameters, declared once with
+defaults, bounds, units and help; the common execution options come from
+:class:`studio.studies.options.StudyOptions`) and::
 
     run(options, out_dir, *, progress=None, cancel=None) -> StudyResult
+
+Bad input raises :class:`StudyInputError` (its whole message is the job's error); the
+result carries the study's data: ``summary`` (headline figures), ``tables`` (name -> CSV)
+and ``figures`` (PNG paths).
 
 ``progress(fraction, message)`` is told how far the study is (0..1, and a line such as
 ``"wedge runs: 1.5/3 run"``); ``cancel`` is a ``threading.Event`` (or anything with
 ``is_set()``): once it is set the study stops at its next check (between runs, between the
 chunks of a run), keeps the runs already finished and returns exit code 130, like Ctrl-C.
 
-The command line maps its argv to ``Options`` (:meth:`ExecutionOptions.from_args`) and the
-job service builds them from a client's dict (:mod:`studio.studies.registry`); both call
-``run``. The study's report (tables, file names) is printed on stdout as before.
+The command line parses its argv into ``Options`` (:func:`studio.studies.options.options_from_args`)
+and the job service checks a client's dict with the same model (:mod:`studio.studies.registry`);
+both call ``run``. The study's report (tables, file names) is printed on stdout as before.
 
 How progress and cancel reach the runs: :func:`session` makes them the *current* study's, for
 the thread that runs the study; the runner (:mod:`studio.studies.runner`) and the study tasks
@@ -23,7 +28,6 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,49 +38,32 @@ from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_OK, describe
 ProgressFn = Callable[[float, str], None]
 
 
+class StudyInputError(ValueError):
+    """A study's input it cannot run (a scene without a wedge, a depth that is not a whole
+    number of steps, an option the scene contradicts): raised by ``run`` before anything
+    runs; the command line prints it and exits 2, the job layer keeps the whole message as
+    the job's error."""
+
+
 class StudyCancelled(KeyboardInterrupt):
     """Raised at a check point once the study's cancel is set. A KeyboardInterrupt on
     purpose: a cancel takes the same path as Ctrl-C (finished runs kept, exit code 130)."""
 
 
 @dataclass
-class ExecutionOptions:
-    """Where and how a study's runs execute (the options every study command has).
-
-    ``scheduler``: an existing Dask scheduler (``tcp://HOST:PORT``), ``None`` for a local
-    cluster; ``workers``: its worker processes (1: the runs in this process, no cluster);
-    ``no_progress``: no progress bar on the terminal (``progress`` callbacks are told anyway).
-    """
-
-    scheduler: Optional[str] = None
-    workers: Optional[int] = None
-    no_progress: bool = False
-
-    @classmethod
-    def from_args(cls, args) -> "ExecutionOptions":
-        """The options of a parsed command line (an ``argparse.Namespace`` with the same
-        names; absent names keep their defaults)."""
-        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)
-                      if hasattr(args, f.name)})
-
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "ExecutionOptions":
-        names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: v for k, v in data.items() if k in names})
-
-
-@dataclass
 class StudyResult:
-    """What became of a study: its exit code (0 ok, 1 some runs failed, 2 bad input, 130
-    cancelled), its output folder and wall time. ``files`` lists what it wrote."""
+    """What became of a study: its exit code (0 ok, 1 some runs failed, 130 cancelled; bad
+    input raises :class:`StudyInputError` instead), its output folder and wall time, and its
+    data: ``summary`` (headline figures, JSON-able), ``tables`` (name -> CSV file) and
+    ``figures`` (plot files). ``files`` lists everything it wrote."""
 
     study: str
     exit_code: int
     out_dir: Path
     wall_s: float = 0.0
+    summary: dict = field(default_factory=dict)
+    tables: dict = field(default_factory=dict)
+    figures: list = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -187,9 +174,10 @@ def cancel_requested() -> bool:
     return current().cancelled()
 
 
-def study_run(study: str, body: Callable[[Any, Path], int]) -> Callable[..., StudyResult]:
+def study_run(study: str, body: Callable[[Any, Path], Any]) -> Callable[..., StudyResult]:
     """A study's ``run(options, out_dir, *, progress=None, cancel=None) -> StudyResult``:
-    its body ``body(options, out_dir) -> exit code`` through :func:`run_body`."""
+    its body ``body(options, out_dir)`` (returning an exit code, or ``(exit code,
+    summary)``) through :func:`run_body`."""
 
     def run(options, out_dir, *, progress: Optional[ProgressFn] = None,
             cancel: Any = None) -> StudyResult:
@@ -200,20 +188,41 @@ def study_run(study: str, body: Callable[[Any, Path], int]) -> Callable[..., Stu
     return run
 
 
-def run_body(study: str, body: Callable[[Any, Path], int], options, out_dir,
+def run_body(study: str, body: Callable[[Any, Path], Any], options, out_dir,
              progress: Optional[ProgressFn] = None, cancel: Any = None) -> StudyResult:
-    """Run a study's body ``body(options, out_dir) -> exit code`` in a session of
-    ``progress`` and ``cancel``; a cancel (or Ctrl-C) that escapes the body is exit 130."""
+    """Run a study's body ``body(options, out_dir)`` in a session of ``progress`` and
+    ``cancel``; a cancel (or Ctrl-C) that escapes the body is exit 130. The body returns an
+    exit code, or ``(exit code, summary dict)``; without a summary it is the study's
+    ``study.json`` where it wrote one. ``tables`` are the CSV files and ``figures`` the PNG
+    files of the output folder's top level. :class:`StudyInputError` propagates."""
     out = Path(out_dir)
     t0 = time.perf_counter()
-    options = dataclasses.replace(options)  # the body may fill in defaults: not the caller's
+    options = options.model_copy(deep=True)  # the body may fill in defaults: not the caller's
+    summary = None
     with session(progress, cancel):
         try:
-            code = int(body(options, out) or 0)
+            returned = body(options, out)
+            if isinstance(returned, tuple):
+                returned, summary = returned
+            code = int(returned or 0)
         except KeyboardInterrupt:
             import sys
 
             print("cancelled: finished runs are kept; run the same command again to go on",
                   file=sys.stderr)
             code = EXIT_CANCELLED
-    return StudyResult(study, code, out, time.perf_counter() - t0)
+    return StudyResult(study, code, out, time.perf_counter() - t0,
+                       summary=summary if summary is not None else _study_json(out),
+                       tables={p.stem: p for p in sorted(out.glob("*.csv"))},
+                       figures=sorted(out.glob("*.png")))
+
+
+def _study_json(out: Path) -> dict:
+    """The ``study.json`` a study wrote into ``out`` (empty when none or unreadable)."""
+    import json
+
+    try:
+        data = json.loads((out / "study.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}

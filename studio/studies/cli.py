@@ -4,7 +4,8 @@ Each module in :data:`STUDY_MODULES` exposes ``add_parser(study_subparsers)``, w
 subcommand with ``set_defaults(func=...)`` (a function of the parsed arguments returning an
 exit code: 0 ok, 1 some runs failed, 2 bad input, 130 cancelled). Common options
 (``-o/--output``, ``--scheduler``, ``--workers``, ``--no-progress``) come from
-:func:`studio.studies.study_command.add_common_options`. Study modules import dask, matplotlib and
+:func:`studio.studies.study_command.set_command` (``-o/--output``) and the study's options
+model (:class:`studio.studies.options.StudyOptions`). Study modules import dask, matplotlib and
 the engine inside their commands only, so that ``brush-studio --help`` stays fast.
 """
 from __future__ import annotations

@@ -28,14 +28,15 @@ import csv
 import itertools
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
 import numpy as np
 
+from pydantic import Field
+
 from . import api
-from .api import ExecutionOptions
+from .options import StudyOptions
 from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
 
 PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
@@ -238,9 +239,11 @@ def write_outputs(out_dir: Path, outcomes, threshold: float) -> dict:
     return {"runs": rows}
 
 
-def _floats(text: Optional[str], what: str) -> list:
-    if text is None:
+def _floats(text, what: str) -> list:
+    if text is None or (isinstance(text, list) and not text):
         return [None]
+    if isinstance(text, list):  # checked by the options model
+        return [float(v) for v in text]
     from .study_command import number_list
 
     values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
@@ -249,37 +252,90 @@ def _floats(text: Optional[str], what: str) -> list:
     return values
 
 
-def _signed(text: str, what: str) -> list:
-    """A comma-separated list of finite numbers (any sign)."""
+def _signed(values, what: str) -> list:
+    """Finite numbers of any sign (a list checked by the options model, or text)."""
+    if isinstance(values, list):
+        if not values:
+            return [0.0]
+        return [float(v) for v in values]
     from .study_command import number_list
 
-    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
-    if not values or any(not math.isfinite(v) for v in values):
-        raise ValueError(f"{what} {text!r}: finite numbers")
-    return values
+    out = number_list(values, float, f"{what} {values!r}: expected comma-separated numbers")
+    if not out or any(not math.isfinite(v) for v in out):
+        raise ValueError(f"{what} {values!r}: finite numbers")
+    return out
 
 
-@dataclass
-class Options(ExecutionOptions):
-    """``brush-studio study detumble`` (``None``: the preset's value)."""
+_POSITIVE_LIST = list[Annotated[float, Field(gt=0, allow_inf_nan=False)]]
 
-    preset: str = "detumble_upper_stage"
-    sizes: str = "1"                  # target scale factors
-    spins: Optional[str] = None       # deg/s
-    lengths: Optional[str] = None     # bristle lengths, mm
-    diameters: Optional[str] = None   # bristle root diameters, mm
-    threshold: float = 0.05           # detumbled: |w| below this fraction of the initial
-    stress_limit: Optional[float] = None  # Pa; default STRESS_LIMITS[material]
-    n_nodes: Optional[int] = None
-    rows: Optional[int] = None
-    columns: Optional[int] = None
-    duration: Optional[float] = None
-    record_interval: Optional[float] = None
-    tilts: str = "0"                  # spin-axis tilts, deg
-    tumbles: str = "0"                # transverse spin fractions
-    offsets: str = "0"                # hold offsets across the surface's motion, m
-    isp: float = 220.0                # s: the chaser's thrusters (propellant figures)
-    drift_time: float = 3600.0        # s: the debris's CW drift after the run
+
+class Options(StudyOptions):
+    """``brush-studio study detumble`` (``None`` or an empty list: the preset's value)."""
+
+    preset: str = Field("detumble_upper_stage",
+                        description="the detumble scene: " + " or ".join(PRESETS)
+                        + " (default detumble_upper_stage), or a scene file with the same "
+                          "layout", json_schema_extra={"metavar": "NAME_OR_FILE",
+                                                       "scene": True})
+    sizes: _POSITIVE_LIST = Field([1.0], min_length=1,
+                                  description="target scale factors (default 1)")
+    spins: _POSITIVE_LIST = Field(default_factory=list,
+                                  description="initial spin rates, deg/s (default: the "
+                                              "preset's)",
+                                  json_schema_extra={"metavar": "DEG_PER_S",
+                                                     "unit": "deg/s"})
+    lengths: _POSITIVE_LIST = Field(default_factory=list,
+                                    description="bristle lengths, mm (default: the preset's)",
+                                    json_schema_extra={"metavar": "MM", "unit": "mm"})
+    diameters: _POSITIVE_LIST = Field(default_factory=list,
+                                      description="bristle root diameters, mm (default: the "
+                                                  "preset's)",
+                                      json_schema_extra={"metavar": "MM", "unit": "mm"})
+    threshold: float = Field(0.05, gt=0, lt=1,
+                             description="detumbled once |omega| stays below this fraction "
+                                         "of its initial value (default 0.05)")
+    stress_limit: Optional[float] = Field(
+        None, gt=0, description="bristle bending stress limit, Pa (default: "
+        + ", ".join(f"{k} {v:g}" for k, v in STRESS_LIMITS.items()) + ")",
+        json_schema_extra={"metavar": "PA", "unit": "Pa"})
+    n_nodes: Optional[int] = Field(None, ge=2, le=4096,
+                                   description="nodes per bristle (default: the preset's)",
+                                   json_schema_extra={"flags": ["--nodes", "--n-nodes"],
+                                                      "metavar": "N"})
+    rows: Optional[int] = Field(None, ge=1, description="brush rows (default: preset's)")
+    columns: Optional[int] = Field(None, ge=1,
+                                   description="bristles per row (default: the preset's)")
+    duration: Optional[float] = Field(None, gt=0,
+                                      description="simulated time per run at most (default: "
+                                                  "the preset's; a run stops earlier once "
+                                                  "the target is detumbled)",
+                                      json_schema_extra={"metavar": "S", "unit": "s"})
+    record_interval: Optional[float] = Field(None, gt=0,
+                                             description="time between recorded frames, s",
+                                             json_schema_extra={"metavar": "S", "unit": "s"})
+    tilts: list[float] = Field([0.0], min_length=1,
+                               description="tolerance sweep: spin-axis tilts toward the brush "
+                                           "normal (default 0)",
+                               json_schema_extra={"metavar": "DEG", "unit": "deg"})
+    tumbles: list[float] = Field([0.0], min_length=1,
+                                 description="tolerance sweep: a transverse spin component, as "
+                                             "a fraction of |omega| (a tumbling, non-principal "
+                                             "spin; default 0)",
+                                 json_schema_extra={"metavar": "FRACTION"})
+    offsets: list[float] = Field([0.0], min_length=1,
+                                 description="tolerance sweep: the hold point moved across the "
+                                             "surface's motion (default 0)",
+                                 json_schema_extra={"metavar": "M", "unit": "m"})
+    isp: float = Field(220.0, gt=0,
+                       description="specific impulse of the chaser's thrusters (default 220, a "
+                                   "hydrazine monopropellant class): the propellant figures, "
+                                   "for per-axis and gimballed thrusters",
+                       json_schema_extra={"metavar": "S", "unit": "s"})
+    drift_time: float = Field(3600.0, gt=0,
+                              description="how long the debris's free CW drift after the run "
+                                          "is followed for the minimum chaser-debris distance "
+                                          "(default 3600)",
+                              json_schema_extra={"metavar": "S", "unit": "s"})
 
 
 def add_parser(study_subparsers) -> None:
@@ -292,47 +348,6 @@ def add_parser(study_subparsers) -> None:
                     "detumble, peak loads on target and chaser, the chaser's Delta-v and "
                     "attitude error, peak bristle bending stress against the limit; swept "
                     "over target size, spin rate and brush design. See docs/mission.md.")
-    p.add_argument("--preset", default="detumble_upper_stage", metavar="NAME_OR_FILE",
-                   help="the detumble scene: " + " or ".join(PRESETS) + " (default "
-                        "detumble_upper_stage), or a scene file with the same layout")
-    p.add_argument("--sizes", default="1", help="target scale factors (default 1)")
-    p.add_argument("--spins", default=None, metavar="DEG_PER_S",
-                   help="initial spin rates, deg/s (default: the preset's)")
-    p.add_argument("--lengths", default=None, metavar="MM",
-                   help="bristle lengths, mm (default: the preset's)")
-    p.add_argument("--diameters", default=None, metavar="MM",
-                   help="bristle root diameters, mm (default: the preset's)")
-    p.add_argument("--threshold", type=float, default=0.05,
-                   help="detumbled once |omega| stays below this fraction of its initial "
-                        "value (default 0.05)")
-    p.add_argument("--stress-limit", type=float, default=None, metavar="PA",
-                   help="bristle bending stress limit, Pa (default: "
-                        + ", ".join(f"{k} {v:g}" for k, v in STRESS_LIMITS.items()) + ")")
-    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the preset's)")
-    p.add_argument("--rows", type=int, default=None, help="brush rows (default: preset's)")
-    p.add_argument("--columns", type=int, default=None,
-                   help="bristles per row (default: the preset's)")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="simulated time per run at most (default: the preset's; a run "
-                        "stops earlier once the target is detumbled)")
-    p.add_argument("--record-interval", type=float, default=None, metavar="S")
-    p.add_argument("--tilts", default="0", metavar="DEG",
-                   help="tolerance sweep: spin-axis tilts toward the brush normal, deg "
-                        "(default 0)")
-    p.add_argument("--tumbles", default="0", metavar="FRACTION",
-                   help="tolerance sweep: a transverse spin component, as a fraction of "
-                        "|omega| (a tumbling, non-principal spin; default 0)")
-    p.add_argument("--offsets", default="0", metavar="M",
-                   help="tolerance sweep: the hold point moved across the surface's motion, "
-                        "m (default 0)")
-    p.add_argument("--isp", type=float, default=220.0, metavar="S",
-                   help="specific impulse of the chaser's thrusters, s (default 220, a "
-                        "hydrazine monopropellant class): the propellant figures, for "
-                        "per-axis and gimballed thrusters")
-    p.add_argument("--drift-time", type=float, default=3600.0, metavar="S",
-                   help="how long the debris's free CW drift after the run is followed for "
-                        "the minimum chaser-debris distance (default 3600)")
     set_command(p, run, Options, default_output="study-detumble")
 
 
@@ -367,28 +382,16 @@ def _grid(options: Options) -> dict:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .study_command import check_common_options, first_problem, report_failures, run_study
+    from .study_command import report_failures, run_study
 
-    problem = check_common_options(options)
+    problem = None
     grid = None
     try:
         grid = _grid(options)
     except ValueError as exc:
-        problem = problem or str(exc)
-    checks = [
-        (0 < options.threshold < 1, "--threshold must be between 0 and 1"),
-        (options.stress_limit is None or options.stress_limit > 0,
-         "--stress-limit must be > 0"),
-        (options.n_nodes is None or options.n_nodes >= 2, "--n-nodes must be >= 2"),
-        (options.rows is None or options.rows >= 1, "--rows must be >= 1"),
-        (options.columns is None or options.columns >= 1, "--columns must be >= 1"),
-        (options.duration is None or options.duration > 0, "--duration must be > 0"),
-        (options.isp > 0, "--isp must be > 0"),
-        (options.drift_time > 0, "--drift-time must be > 0"),
-        (options.record_interval is None or options.record_interval > 0,
-         "--record-interval must be > 0")]
+        problem = str(exc)
     code, outcomes = run_study(lambda: build_specs(options, grid), out, options,
-                               desc="detumble runs", problem=first_problem(problem, checks))
+                               desc="detumble runs", problem=problem)
     if code is not None:
         return code
     summary = write_outputs(out, outcomes, options.threshold)

@@ -38,8 +38,11 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from pydantic import Field
+
 from . import api
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_OK
+from .options import StudyOptions
+from ..exit_codes import EXIT_OK
 
 DEFAULT_OUTPUT = "fit-dissipation"
 
@@ -417,41 +420,33 @@ def register(subparsers) -> None:
                     "low-pass filter the angle, differentiate, least squares. Writes fit.json, "
                     "fit.csv, fit.h5 and fit.png into DIR.",
         epilog="Exit codes: 0 ok, 1 the fit failed, 2 bad input.")
-    p.add_argument("spindown", metavar="SPINDOWN.csv",
-                   help="CSV with time [s] and angle columns (header optional: 'time', "
-                        "'angle'; else the first two columns)")
-    p.add_argument("-o", "--output", metavar="DIR", default=DEFAULT_OUTPUT,
-                   help=f"output folder (default ./{DEFAULT_OUTPUT})")
-    p.add_argument("--degrees", action="store_true", help="the angle column is in degrees")
-    p.add_argument("--time-column", metavar="NAME|INDEX", default=None)
-    p.add_argument("--angle-column", metavar="NAME|INDEX", default=None)
-    p.add_argument("--cutoff", type=float, metavar="HZ", default=None,
-                   help="low-pass cutoff (default: 10 / duration of the record)")
-    p.add_argument("--min-speed", type=float, metavar="RAD_PER_S", default=None,
-                   help="fit only samples turning faster than this (default 5%% of the "
-                        "top speed)")
+    from .options import EXECUTION_OPTIONS
     from .study_command import set_command
 
-    # (its own -o/--output above, no execution options: the fit runs no simulation)
-    set_command(p, run, Options, common_options=False)
+    # no execution options: the fit runs no simulation
+    set_command(p, run, Options, default_output=DEFAULT_OUTPUT, skip=EXECUTION_OPTIONS)
 
 
-@dataclass
-class Options:
-    """``brush-studio fit-dissipation``: the spin-down CSV to fit and how to read it."""
+class Options(StudyOptions):
+    """``brush-studio fit-dissipation``: the spin-down CSV to fit and how to read it (the
+    execution options do not apply: the fit runs no simulation)."""
 
-    spindown: str                      # CSV with time [s] and angle columns
-    degrees: bool = False              # the angle column is in degrees
-    time_column: Optional[str] = None  # name or index
-    angle_column: Optional[str] = None
-    cutoff: Optional[float] = None     # low-pass cutoff, Hz (default 10 / duration)
-    min_speed: Optional[float] = None  # fit only samples turning faster, rad/s
-
-    @classmethod
-    def from_args(cls, args) -> "Options":
-        import dataclasses
-
-        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
+    spindown: str = Field(description="CSV with time [s] and angle columns (header optional: "
+                                      "'time', 'angle'; else the first two columns)",
+                          json_schema_extra={"positional": True, "metavar": "SPINDOWN.csv"})
+    degrees: bool = Field(False, description="the angle column is in degrees")
+    time_column: Optional[str] = Field(None, description="the time column's name or index",
+                                       json_schema_extra={"metavar": "NAME|INDEX"})
+    angle_column: Optional[str] = Field(None, description="the angle column's name or index",
+                                        json_schema_extra={"metavar": "NAME|INDEX"})
+    cutoff: Optional[float] = Field(None, gt=0, description="low-pass cutoff (default: 10 / "
+                                                            "duration of the record)",
+                                    json_schema_extra={"metavar": "HZ", "unit": "Hz"})
+    min_speed: Optional[float] = Field(None, ge=0, description="fit only samples turning "
+                                                               "faster than this (default 5% "
+                                                               "of the top speed)",
+                                       json_schema_extra={"metavar": "RAD_PER_S",
+                                                          "unit": "rad/s"})
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -461,8 +456,7 @@ def _run_study(options: Options, out: Path) -> int:
             a = np.radians(a)
         fit = fit_dissipation(t, a, cutoff_hz=options.cutoff, min_speed=options.min_speed)
     except SpindownError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        raise api.StudyInputError(str(exc)) from None
     paths = write_outputs(fit, out, source=str(options.spindown))
     print(f"k1 = {fit.k1:.6g} ± {fit.k1_stderr:.2g} 1/s      (refined: {fit.refined_k1:.6g})")
     print(f"k2 = {fit.k2:.6g} ± {fit.k2_stderr:.2g} rad/s^2  (refined: {fit.refined_k2:.6g})")

@@ -18,18 +18,18 @@ import csv
 import math
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
+
+from pydantic import Field
 
 from . import api
 from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import (check_common_options, report_failures, run_many_from_args,
-                            set_command)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+from .study_command import report_failures, run_many_from_args, set_command
+from ..exit_codes import EXIT_CANCELLED
 from .wedge import TASK, numeric_summary
-from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
+from .wedge_protocol import ProtocolOptions, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
 
@@ -52,7 +52,10 @@ def overlap_ceiling(brush: dict) -> int:
     return best
 
 
-def parse_levels(text: str) -> list[int]:
+def parse_levels(text) -> list[int]:
+    """The levels of ``text`` (``"4,8,16"``, or a list of integers), sorted, each once."""
+    if isinstance(text, (list, tuple)):
+        text = ",".join(str(x) for x in text)
     try:
         levels = sorted({int(x) for x in text.split(",") if x.strip()})
     except ValueError:
@@ -62,15 +65,20 @@ def parse_levels(text: str) -> list[int]:
     return levels
 
 
-@dataclass
 class Options(ProtocolOptions):
     """``brush-studio study refinement``: one scene (preset name or file; default wedge_60)
-    at the numbers of nodes per bristle in ``levels`` (``"4,6,8"``). Default depth 5 mm,
-    loading only; ``nodes`` does not apply."""
+    at the numbers of nodes per bristle in ``levels``. Default depth 5 mm, loading only;
+    ``nodes`` does not apply."""
 
-    preset: list = field(default_factory=list)
-    levels: str = DEFAULT_LEVELS
-    angles: Optional[str] = None  # not an option of this study: always the scene's angle
+    preset: list[str] = Field(default_factory=list, max_length=1,
+                              description="scene file or preset name (default wedge_60); "
+                                          "one only",
+                              json_schema_extra={"metavar": "SCENE", "scene": True,
+                                           "design": True})
+    levels: list[Annotated[int, Field(ge=2, le=4096)]] = Field(
+        [int(x) for x in DEFAULT_LEVELS.split(",")], min_length=2,
+        description=f"nodes per bristle (default {DEFAULT_LEVELS})",
+        json_schema_extra={"metavar": "N,..."})
 
 
 def add_parser(sub) -> None:
@@ -81,24 +89,14 @@ def add_parser(sub) -> None:
                     "including past the seed's node-overlap ceiling, and report the force at "
                     "maximum penetration, its change between successive levels and the wall "
                     "time of each. Default depth 5 mm (--depth-mm).")
-    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
-                   help="scene file or preset name (default wedge_60); one only")
-    p.add_argument("--levels", default=DEFAULT_LEVELS, metavar="N,...",
-                   help=f"nodes per bristle (default {DEFAULT_LEVELS})")
-    add_protocol_options(p)
-    set_command(p, run, Options, angles=None)
+    set_command(p, run, Options)
 
 
 def _run_study(options: Options, out: Path) -> int:
     import engine
 
-    msg = check_common_options(options)
-    if msg:
-        print(msg, file=sys.stderr)
-        return EXIT_BAD_INPUT
     if options.nodes is not None:
-        print("--nodes does not apply: use --levels", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        raise StudyInputError("--nodes does not apply: use --levels")
     try:
         levels = parse_levels(options.levels)
         if len(options.preset) > 1:
@@ -115,15 +113,11 @@ def _run_study(options: Options, out: Path) -> int:
                 "n_nodes_per_bristle": n, "source": src, "angle_deg": wedge_angle_deg(sc),
                 "protocol": protocol_from_options(sc, options)}, TASK))
     except engine.SceneError as exc:
-        print("invalid scene: " + "; ".join(str(p) for p in exc.problems), file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except StudyInputError as exc:
-        print(str(exc), file=sys.stderr)
-        return EXIT_BAD_INPUT
+        raise StudyInputError("invalid scene: " + "; ".join(str(p) for p in exc.problems)
+                              ) from None
     bad = validate_scenes([s.scene for s in specs])
     if bad:
-        print(bad, file=sys.stderr)
-        return EXIT_BAD_INPUT
+        raise StudyInputError(bad)
     print(f"refinement of {src}: nodes per bristle {levels}, loading to "
           f"{options.depth_mm:g} mm; the seed's node-overlap ceiling is {ceiling} nodes")
     t0 = time.perf_counter()

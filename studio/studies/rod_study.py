@@ -10,12 +10,14 @@ per simulation); written by :mod:`studio.studies.rod_outputs`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import typing
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Annotated, Literal, Optional, Sequence
+
+from pydantic import Field
 
 from . import api
-from .api import ExecutionOptions
+from .options import StudyOptions
 from .rod import (CASES, DEFAULT_FRICTION_ANGLE_DEG, DEFAULT_RESPONSE_FORCE,
                   DEFAULT_RESPONSE_FREQUENCIES, PRESETS, cantilever_frequencies, case_scene,
                   response_scene)
@@ -51,26 +53,60 @@ def build_specs(cases: Sequence[str], *, n_nodes: Optional[int], free_duration: 
 
 
 # ----------------------------------------------------------------------------- CLI
-@dataclass
-class Options(ExecutionOptions):
+Case = Literal["weight_release", "tip_impulse", "root_impulse", "response"]
+assert set(typing.get_args(Case)) == set(CASES + ("response",))
+
+
+class Options(StudyOptions):
     """``brush-studio study rod`` (``None``: the presets' value)."""
 
-    cases: str = ",".join(CASES + ("response",))  # comma-separated subset
-    preset: list = field(default_factory=list)     # rod presets (instead of cases)
-    n_nodes: Optional[int] = None                  # nodes per rod, excitation cases
-    free_duration: Optional[float] = None          # free vibration after the excitation, s
-    record_interval: Optional[float] = None        # s
-    frequencies: Optional[str] = None              # drive frequencies "F1,F2,...", Hz
-    response_nodes: int = 16
-    response_force: float = DEFAULT_RESPONSE_FORCE  # tip force amplitude, N
-    friction_angle: float = DEFAULT_FRICTION_ANGLE_DEG  # rod-plate, degrees
-    settle_periods: float = 6.0
-    measure_periods: float = 6.0
-    min_time: float = 0.5                          # least settling and measuring time, s
+    cases: list[Case] = Field(list(CASES + ("response",)), min_length=1,
+                              description="comma-separated subset of: "
+                                          + ", ".join(CASES + ("response",)))
+    preset: list[str] = Field(
+        default_factory=list,
+        description="a preset the study's runs start from (repeat for several; default all): "
+                    + ", ".join(PRESETS.values()) + "; another way to give the excitation "
+                                                    "cases (--cases)",
+        json_schema_extra={"metavar": "NAME", "scene": True})
+    n_nodes: Optional[int] = Field(
+        None, ge=3, le=4096,
+        description="nodes per rod for the excitation cases (default: the presets', 36; "
+                    "--n-nodes is the older spelling, deprecated)",
+        json_schema_extra={"flags": ["--nodes", "--n-nodes"], "metavar": "N"})
+    free_duration: Optional[float] = Field(
+        None, gt=0, description="free vibration recorded after the excitation (default: the "
+                                "presets', 4.5 s)",
+        json_schema_extra={"metavar": "S", "unit": "s"})
+    record_interval: Optional[float] = Field(
+        None, gt=0, description="record interval of the excitation cases (default: the "
+                                "presets')", json_schema_extra={"metavar": "S", "unit": "s"})
+    frequencies: list[Annotated[float, Field(gt=0, allow_inf_nan=False)]] = Field(
+        default_factory=list,
+        description="drive frequencies of the response, Hz (default: 24 from 2 to 130)",
+        json_schema_extra={"metavar": "F1,F2,...", "unit": "Hz"})
+    response_nodes: int = Field(16, ge=3, le=4096,
+                                description="nodes per rod for the response runs (default 16)")
+    response_force: float = Field(DEFAULT_RESPONSE_FORCE, gt=0,
+                                  description=f"tip force amplitude (default "
+                                              f"{DEFAULT_RESPONSE_FORCE})",
+                                  json_schema_extra={"metavar": "N", "unit": "N"})
+    friction_angle: float = Field(DEFAULT_FRICTION_ANGLE_DEG, ge=0, lt=90,
+                                  description=f"rod-plate friction angle, degrees (default "
+                                              f"{DEFAULT_FRICTION_ANGLE_DEG:g})",
+                                  json_schema_extra={"metavar": "DEG", "unit": "deg"})
+    settle_periods: float = Field(6.0, gt=0,
+                                  description="drive periods to settle before measuring "
+                                              "(default 6; at least --min-time)")
+    measure_periods: float = Field(6.0, ge=1,
+                                   description="drive periods measured (default 6; at least "
+                                               "--min-time)")
+    min_time: float = Field(0.5, ge=0, description="least settling and measuring time, s "
+                                                   "(default 0.5)",
+                            json_schema_extra={"metavar": "S", "unit": "s"})
 
 
 def add_parser(study_subparsers) -> None:
-    from .preset_option import add_preset_option
     from .study_command import set_command
 
     p = study_subparsers.add_parser(
@@ -80,70 +116,23 @@ def add_parser(study_subparsers) -> None:
                     "(tip trajectory, power spectrum, peaks.json with the spectral peaks "
                     "against the Euler-Bernoulli frequencies), and the frequency response of "
                     "the rod lying on a plate with friction (seed fig. 4.6).")
-    p.add_argument("--cases", default=",".join(CASES + ("response",)),
-                   help="comma-separated subset of: " + ", ".join(CASES + ("response",)))
-    add_preset_option(p, "rod", list(PRESETS.values()), "the excitation cases (--cases)")
-    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per rod for the excitation cases (default: the presets', 36; "
-                        "--n-nodes is the older spelling, deprecated)")
-    p.add_argument("--free-duration", type=float, default=None, metavar="S",
-                   help="free vibration recorded after the excitation (default: the "
-                        "presets', 4.5 s)")
-    p.add_argument("--record-interval", type=float, default=None, metavar="S",
-                   help="record interval of the excitation cases (default: the presets')")
-    p.add_argument("--frequencies", default=None, metavar="F1,F2,...",
-                   help="drive frequencies of the response, Hz (default: 24 from 2 to 130)")
-    p.add_argument("--response-nodes", type=int, default=16,
-                   help="nodes per rod for the response runs (default 16)")
-    p.add_argument("--response-force", type=float, default=DEFAULT_RESPONSE_FORCE,
-                   metavar="N", help=f"tip force amplitude (default {DEFAULT_RESPONSE_FORCE})")
-    p.add_argument("--friction-angle", type=float, default=DEFAULT_FRICTION_ANGLE_DEG,
-                   metavar="DEG", help="rod-plate friction angle, degrees (default "
-                                       f"{DEFAULT_FRICTION_ANGLE_DEG:g})")
-    p.add_argument("--settle-periods", type=float, default=6.0,
-                   help="drive periods to settle before measuring (default 6; at least "
-                        "--min-time)")
-    p.add_argument("--measure-periods", type=float, default=6.0,
-                   help="drive periods measured (default 6; at least --min-time)")
-    p.add_argument("--min-time", type=float, default=0.5, metavar="S",
-                   help="least settling and measuring time, s (default 0.5)")
     set_command(p, run, Options, default_output="study-rod")
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .study_command import (check_common_options, first_problem, number_list,
-                                report_failures, run_study)
+    from .study_command import report_failures, run_study
 
     from .preset_option import PresetChoiceError, chosen
 
-    problem = check_common_options(options)
-    cases = [c.strip() for c in options.cases.split(",") if c.strip()]
-    bad = [c for c in cases if c not in CASES + ("response",)]
-    if bad:
-        problem = f"--cases: unknown {bad}; choose from {CASES + ('response',)}"
+    problem = None
+    cases = list(dict.fromkeys(options.cases))
     try:
         cases = chosen("rod", options.preset, {v: k for k, v in PRESETS.items()},
-                       options.cases, Options.cases, "--cases") or cases
+                       options.cases, Options.model_fields["cases"].default,
+                       "--cases") or cases
     except PresetChoiceError as exc:
-        problem = problem or str(exc)
-    try:
-        freqs = (number_list(options.frequencies, float,
-                             f"{options.frequencies!r}: expected comma-separated numbers")
-                 if options.frequencies else list(DEFAULT_RESPONSE_FREQUENCIES))
-    except ValueError as exc:
-        problem = f"--frequencies: {exc}"
-        freqs = []
-    checks = [(options.n_nodes is None or options.n_nodes >= 3, "--nodes must be >= 3"),
-              (options.response_nodes >= 3, "--response-nodes must be >= 3"),
-              (options.free_duration is None or options.free_duration > 0, "--free-duration must be > 0"),
-              (options.record_interval is None or options.record_interval > 0,
-               "--record-interval must be > 0"),
-              (all(f > 0 for f in freqs), "--frequencies must be > 0"),
-              (options.response_force > 0, "--response-force must be > 0"),
-              (0 <= options.friction_angle < 90, "--friction-angle must be in [0, 90) degrees"),
-              (options.settle_periods > 0 and options.measure_periods >= 1,
-               "--settle-periods must be > 0 and --measure-periods >= 1"),
-              (options.min_time >= 0, "--min-time must be >= 0")]
+        problem = str(exc)
+    freqs = list(options.frequencies) or list(DEFAULT_RESPONSE_FREQUENCIES)
     code, outcomes = run_study(
         lambda: build_specs([c for c in cases if c in CASES], n_nodes=options.n_nodes,
                             free_duration=options.free_duration,
@@ -154,7 +143,7 @@ def _run_study(options: Options, out: Path) -> int:
                             friction_angle=math.radians(options.friction_angle),
                             settle_periods=options.settle_periods,
                             measure_periods=options.measure_periods, min_time=options.min_time),
-        out, options, desc="rod runs", problem=first_problem(problem, checks))
+        out, options, desc="rod runs", problem=problem)
     if code is not None:
         return code
     analytic = cantilever_frequencies()

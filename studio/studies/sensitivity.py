@@ -28,18 +28,18 @@ import csv
 import math
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
+
+from pydantic import Field
 
 from . import api
 from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import (check_common_options, report_failures, run_many_from_args,
-                            set_command)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED
+from .study_command import report_failures, run_many_from_args, set_command
+from ..exit_codes import EXIT_CANCELLED
 from .wedge import TASK, numeric_summary
-from .wedge_protocol import ProtocolOptions, add_protocol_options, protocol_from_options
+from .wedge_protocol import ProtocolOptions, protocol_from_options
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
 
@@ -115,22 +115,30 @@ def nominal_values(scene: dict, brush: str = "brush") -> dict:
     return out
 
 
-@dataclass
 class SensitivityOptions(ProtocolOptions):
     """``brush-studio study sensitivity``: the scenes (preset names or files; default
-    wedge_60) and wedge angles (``"30,45"``); default depth 10 mm."""
+    wedge_60) and wedge angles; default depth 10 mm."""
 
-    preset: list = field(default_factory=list)
-    angles: Optional[str] = None
+    preset: list[str] = Field(
+        default_factory=list,
+        description="scene file or preset name (repeat for several; default wedge_60)",
+        json_schema_extra={"metavar": "SCENE", "scene": True,
+                                           "design": True})
+    angles: list[Annotated[float, Field(gt=0, lt=180)]] = Field(
+        default_factory=list,
+        description="wedge angles in degrees: the presets wedge_<angle> (or one --preset with "
+                    "its angle changed)", json_schema_extra={"metavar": "DEG,...",
+                                                             "unit": "deg"})
 
 
-@dataclass
 class MonteCarloOptions(SensitivityOptions):
     """``brush-studio study montecarlo``: ``samples`` parameter sets per scene drawn with
     ``seed``; default: the scene's resolution and full depth."""
 
-    samples: int = 100
-    seed: int = 1
+    samples: int = Field(100, ge=2, description="samples per scene (default 100; at least 2 "
+                                                "for a standard deviation)",
+                         json_schema_extra={"metavar": "N"})
+    seed: int = Field(1, description="random seed of the samples")
 
 
 def _common(options, default_depth_mm: float, default_nodes: Optional[int]):
@@ -142,14 +150,6 @@ def _common(options, default_depth_mm: float, default_nodes: Optional[int]):
     return resolve_scenes(options.preset, options.angles)
 
 
-def _add_scene_options(p) -> None:
-    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
-                   help="scene file or preset name (repeat for several; default wedge_60)")
-    p.add_argument("--angles", metavar="DEG,...",
-                   help="wedge angles in degrees: the presets wedge_<angle> (or one --preset "
-                        "with its angle changed)")
-
-
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "sensitivity", help="one uncertain parameter at a time over its range (seed 4.2)",
@@ -158,8 +158,6 @@ def add_parser(sub) -> None:
                     "friction angles 44 +- 2 and 24 +- 2 deg) at both ends of its range. "
                     "Default depth 10 mm. Writes sensitivity.csv, sensitivity.png, "
                     "study.json and one HDF5 per run.")
-    _add_scene_options(p)
-    add_protocol_options(p)
     set_command(p, run_sensitivity, SensitivityOptions)
 
     m = sub.add_parser(
@@ -170,20 +168,12 @@ def add_parser(sub) -> None:
                     "Default: the scene's resolution and full depth (the seed's 33 mm). "
                     "Writes montecarlo.csv, samples.csv, montecarlo.png, study.json and one "
                     "HDF5 per sample.")
-    m.add_argument("--samples", type=int, default=100, metavar="N",
-                   help="samples per scene (default 100)")
-    m.add_argument("--seed", type=int, default=1, help="random seed of the samples")
-    _add_scene_options(m)
-    add_protocol_options(m)
     set_command(m, run_montecarlo, MonteCarloOptions)
 
 
 def _prepare(options, default_depth_mm, default_nodes):
     import engine
 
-    msg = check_common_options(options)
-    if msg:
-        raise StudyInputError(msg)
     try:
         return _common(options, default_depth_mm, default_nodes)
     except engine.SceneError as exc:
@@ -202,9 +192,6 @@ def _run_and_write(make_specs, options, out: Path, desc: str, kept: str, write) 
         if bad:
             raise StudyInputError(bad)
         outcomes = run_many_from_args(specs, out, options, desc=desc)
-    except StudyInputError as exc:
-        print(str(exc), file=sys.stderr)
-        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"cancelled: finished {kept} are kept; run the same command again to go on",
               file=sys.stderr)
@@ -340,10 +327,6 @@ def mean_std_table(summaries: list[dict]) -> list[dict]:
 
 
 def _run_montecarlo(options: MonteCarloOptions, out: Path) -> int:
-    if options.samples < 2:
-        print(f"--samples = {options.samples}: must be >= 2 (a standard deviation)",
-              file=sys.stderr)
-        return EXIT_BAD_INPUT
     return _run_and_write(lambda: _montecarlo_specs(options), options, out,
                           "Monte Carlo samples", "samples", write_montecarlo_outputs)
 

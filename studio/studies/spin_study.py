@@ -10,12 +10,13 @@ Outputs (``-o DIR``): ``spin_summary.csv`` (one row per run: rest time, contacts
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Annotated, Literal, Optional, Sequence
+
+from pydantic import Field
 
 from . import api
-from .api import ExecutionOptions
+from .options import StudyOptions
 from .spin import CONFIGS, CUBES_MM, SEED_TIP_VARIANCE, config_label, spin_scene
 from .spin_outputs import write_outputs
 
@@ -52,32 +53,57 @@ def build_specs(cubes: Sequence[int], configs: Sequence[int], *, n_nodes=None, o
 
 
 # ----------------------------------------------------------------------------- CLI
-def _ints(text: str, what: str) -> list[int]:
-    from .study_command import number_list
-
-    return number_list(text, int, f"{what} {text!r}: expected comma-separated integers")
+Cube = Literal[20, 40, 60]
+Config = Literal[1, 2, 3, 4, 5, 6]
 
 
-@dataclass
-class Options(ExecutionOptions):
+class Options(StudyOptions):
     """``brush-studio study spin`` (``None``: the presets' value)."""
 
-    cubes: str = "20,40,60"          # cube edges, mm
-    preset: list = field(default_factory=list)  # spin_cube_<edge> presets (instead of cubes)
-    configs: str = "1,2,3,4,5,6"     # brush configurations
-    n_nodes: Optional[int] = None    # nodes per bristle
-    omega0: Optional[float] = None   # initial spin, rad/s
-    duration: Optional[float] = None  # simulated time per run at most, s
-    grid: Optional[str] = None       # "LONG,SHORT" bristles
-    random_seeds: int = 5            # runs with random bristle tips
-    random_cube: int = 60
-    random_config: int = 5
-    tip_variance: float = SEED_TIP_VARIANCE  # m^2
-    record_interval: Optional[float] = None
+    cubes: list[Cube] = Field([20, 40, 60], min_length=1,
+                              description="cube edges, mm (default 20,40,60)",
+                              json_schema_extra={"unit": "mm"})
+    preset: list[str] = Field(
+        default_factory=list,
+        description="a preset the study's runs start from (repeat for several; default all): "
+                    + ", ".join(f"spin_cube_{c}" for c in CUBES_MM)
+                    + "; another way to give the cubes (--cubes)",
+        json_schema_extra={"metavar": "NAME", "scene": True})
+    configs: list[Config] = Field([1, 2, 3, 4, 5, 6], min_length=1,
+                                  description="brush configurations (default all six)")
+    n_nodes: Optional[int] = Field(
+        None, ge=2, le=4096,
+        description="nodes per bristle (default: the presets', 6; --n-nodes is the older "
+                    "spelling, deprecated)",
+        json_schema_extra={"flags": ["--nodes", "--n-nodes"], "metavar": "N"})
+    omega0: Optional[float] = Field(None, description="initial spin (default: the presets', "
+                                                      "10 rad/s)",
+                                    json_schema_extra={"metavar": "RAD_PER_S",
+                                                       "unit": "rad/s"})
+    duration: Optional[float] = Field(
+        None, gt=0, description="simulated time per run, at most (default: the presets', 3 s; "
+                                "a run ends earlier once the cube is at rest)",
+        json_schema_extra={"metavar": "S", "unit": "s"})
+    grid: list[Annotated[int, Field(ge=1)]] = Field(
+        default_factory=list, description="bristles along the brush's long and short sides "
+                                          "(default 17,5)",
+        json_schema_extra={"metavar": "LONG,SHORT"})
+    random_seeds: int = Field(5, ge=0,
+                              description="runs with random bristle tips (default 5; 0: none)")
+    random_cube: Cube = Field(60, description="cube for them (default 60)")
+    random_config: Config = Field(5, description="configuration for them (default 5: "
+                                                 "vertical brush touching the face, as seed "
+                                                 "fig. 4.39)")
+    tip_variance: float = Field(SEED_TIP_VARIANCE, gt=0,
+                                description=f"variance of the random tips (default "
+                                            f"{SEED_TIP_VARIANCE:g} m^2)",
+                                json_schema_extra={"metavar": "M2", "unit": "m^2"})
+    record_interval: Optional[float] = Field(None, gt=0,
+                                             description="time between recorded frames, s",
+                                             json_schema_extra={"metavar": "S", "unit": "s"})
 
 
 def add_parser(study_subparsers) -> None:
-    from .preset_option import add_preset_option
     from .study_command import set_command
 
     p = study_subparsers.add_parser(
@@ -87,58 +113,24 @@ def add_parser(study_subparsers) -> None:
                     "delta omega per contact against its duration (seed fig. 4.40), time to "
                     "rest, and the effect of random bristle tips (fig. 4.41). Configurations: "
                     + "; ".join(config_label(c) for c in CONFIGS) + ".")
-    p.add_argument("--cubes", default="20,40,60", help="cube edges, mm (default 20,40,60)")
-    add_preset_option(p, "spin", [f"spin_cube_{c}" for c in CUBES_MM], "the cubes (--cubes)")
-    p.add_argument("--configs", default="1,2,3,4,5,6",
-                   help="brush configurations (default all six)")
-    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the presets', 6; --n-nodes is the "
-                        "older spelling, deprecated)")
-    p.add_argument("--omega0", type=float, default=None, metavar="RAD_PER_S",
-                   help="initial spin (default: the presets', 10 rad/s)")
-    p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="simulated time per run, at most (default: the presets', 3 s; a run "
-                        "ends earlier once the cube is at rest)")
-    p.add_argument("--grid", default=None, metavar="LONG,SHORT",
-                   help="bristles along the brush's long and short sides (default 17,5)")
-    p.add_argument("--random-seeds", type=int, default=5,
-                   help="runs with random bristle tips (default 5; 0: none)")
-    p.add_argument("--random-cube", type=int, default=60, help="cube for them (default 60)")
-    p.add_argument("--random-config", type=int, default=5,
-                   help="configuration for them (default 5: vertical brush touching the face, "
-                        "as seed fig. 4.39)")
-    p.add_argument("--tip-variance", type=float, default=SEED_TIP_VARIANCE, metavar="M2",
-                   help=f"variance of the random tips (default {SEED_TIP_VARIANCE:g} m^2)")
-    p.add_argument("--record-interval", type=float, default=None, metavar="S")
     set_command(p, run, Options, default_output="study-spin")
 
 
 def _run_study(options: Options, out: Path) -> int:
     from .preset_option import chosen
-    from .study_command import check_common_options, first_problem, report_failures, run_study
+    from .study_command import first_problem, report_failures, run_study
 
-    problem = check_common_options(options)
+    problem = None
+    cubes = list(options.cubes)
+    configs = list(options.configs)
+    grid = tuple(options.grid) if options.grid else None
     try:
-        cubes = _ints(options.cubes, "--cubes")
         cubes = chosen("spin", options.preset, {f"spin_cube_{c}": c for c in CUBES_MM},
-                       options.cubes, Options.cubes, "--cubes") or cubes
-        configs = _ints(options.configs, "--configs")
-        grid = tuple(_ints(options.grid, "--grid")) if options.grid else None
-    except ValueError as exc:  # PresetChoiceError included
-        problem = problem or str(exc)
-        cubes, configs, grid = [], [], None
-    checks = [
-        (all(c in CUBES_MM for c in cubes) and cubes, f"--cubes: each one of {CUBES_MM}"),
-        (all(c in CONFIGS for c in configs) and configs, "--configs: each one of 1-6"),
-        (grid is None or (len(grid) == 2 and min(grid) >= 1), "--grid: two integers >= 1"),
-        (options.n_nodes is None or options.n_nodes >= 2, "--nodes must be >= 2"),
-        (options.duration is None or options.duration > 0, "--duration must be > 0"),
-        (options.random_seeds >= 0, "--random-seeds must be >= 0"),
-        (options.random_cube in CUBES_MM, f"--random-cube: one of {CUBES_MM}"),
-        (options.random_config in CONFIGS, "--random-config: one of 1-6"),
-        (options.tip_variance > 0, "--tip-variance must be > 0"),
-        (options.record_interval is None or options.record_interval > 0,
-         "--record-interval must be > 0")]
+                       options.cubes, Options.model_fields["cubes"].default,
+                       "--cubes") or cubes
+    except ValueError as exc:  # PresetChoiceError
+        problem = str(exc)
+    checks = [(grid is None or len(grid) == 2, "--grid: two integers >= 1")]
     code, outcomes = run_study(
         lambda: build_specs(cubes, configs, n_nodes=options.n_nodes, omega0=options.omega0,
                             duration=options.duration, grid=grid,

@@ -1,5 +1,5 @@
-"""What every study command shares: the common options (``-o/--output``, ``--scheduler``,
-``--workers``, ``--no-progress``), their check, and the common body of a command (build the
+"""What every study command shares: its parser from its options model (``-o/--output`` and
+the model's fields, :func:`set_command`), and the common body of a command (build the
 runs, check their scenes, run them, write ``outcomes.json``)."""
 from __future__ import annotations
 
@@ -9,14 +9,17 @@ from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 from .run_files import RunOutcome, failures_text, write_outcomes
-from ..exit_codes import EXIT_FAILED, EXIT_OK
+from ..exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from .runner import RunSpec, default_workers, run_many
 
-def add_common_options(parser: argparse.ArgumentParser, default_output: Optional[str] = None,
-                       ) -> None:
-    """Options every study command has: ``-o/--output DIR``, ``--scheduler``, ``--workers``,
-    ``--no-progress``."""
-    g = parser.add_argument_group("output and execution")
+EXECUTION_GROUP = "output and execution"
+
+
+def add_output_option(parser: argparse.ArgumentParser, default_output: Optional[str] = None
+                      ) -> None:
+    """``-o/--output DIR`` (required unless ``default_output``): where a study writes. Not
+    an option of the study's model: the job layer chooses the folder itself."""
+    g = parser.add_argument_group(EXECUTION_GROUP)
     if default_output is None:
         g.add_argument("-o", "--output", metavar="DIR", required=True,
                        help="output folder (created; a restart in the same folder skips "
@@ -25,29 +28,33 @@ def add_common_options(parser: argparse.ArgumentParser, default_output: Optional
         g.add_argument("-o", "--output", metavar="DIR", default=default_output,
                        help=f"output folder (default ./{default_output}; a restart in the "
                             f"same folder skips runs already complete)")
-    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
-                   help="address of an existing Dask scheduler (its workers must see DIR); "
-                        "default: a local cluster, one single-threaded worker per core")
-    g.add_argument("--workers", type=int, metavar="N", default=None,
-                   help=f"worker processes of the local cluster (default: one per core, "
-                        f"{default_workers()} here); 1 runs the runs in this process, "
-                        f"one after another, without a cluster")
-    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return g
 
 
 def set_command(parser: argparse.ArgumentParser, run: Callable, options: type, *,
-                default_output: Optional[str] = None, common_options: bool = True,
+                default_output: Optional[str] = None, skip: Sequence[str] = (),
                 **defaults) -> None:
-    """Finish a study's parser: the common options (:func:`add_common_options`; with
-    ``common_options=False`` the parser declares its own ``-o/--output`` and whatever
-    execution options it has) and, as its ``func``, the command: the parsed arguments as
-    ``options`` (``options.from_args``), run by ``run`` into ``--output``; it returns the
-    exit code. ``defaults``: more ``set_defaults`` values."""
-    if common_options:
-        add_common_options(parser, default_output)
+    """Finish a study's parser from its options model ``options``: ``-o/--output``
+    (:func:`add_output_option`) and one argument per field
+    (:func:`studio.studies.options.add_model_arguments`); as its ``func``, the command: the
+    parsed arguments checked by the model, run by ``run`` into ``--output``. A refused
+    option (:class:`StudyOptionError`, naming the flag, value and bound) or bad input
+    (:class:`StudyInputError`) is printed and exits 2. ``skip``: fields the command does
+    not offer (their defaults apply); ``defaults``: more ``set_defaults`` values."""
+    from .options import add_model_arguments
+
+    group = add_output_option(parser, default_output)
+    add_model_arguments(parser, options, groups={EXECUTION_GROUP: group}, skip=skip)
 
     def command(args) -> int:
-        return run(options.from_args(args), args.output).exit_code
+        from .api import StudyInputError
+        from .options import StudyOptionError, options_from_args
+
+        try:
+            return run(options_from_args(options, args), args.output).exit_code
+        except (StudyOptionError, StudyInputError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
 
     parser.set_defaults(func=command, **defaults)
 
@@ -60,17 +67,6 @@ def number_list(text: str, convert: Callable = float,
         return [convert(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise ValueError(message) from None
-
-
-def check_common_options(args) -> Optional[str]:
-    """A message for a bad common option, or None."""
-    if args.workers is not None and args.workers < 1:
-        return f"--workers = {args.workers}: must be >= 1"
-    if args.scheduler is not None and args.workers is not None:
-        return "--workers applies to the local cluster only; leave it out with --scheduler"
-    if args.scheduler is not None and "://" not in args.scheduler:
-        return f"--scheduler = {args.scheduler!r}: expected an address like tcp://HOST:PORT"
-    return None
 
 
 def run_many_from_args(specs: Sequence[RunSpec], out_dir, args, desc: str = "runs"
@@ -95,32 +91,30 @@ def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
               ) -> tuple[Optional[int], list[RunOutcome]]:
     """The common body of a study command: refuse the ``problem`` the command found in its
     options (:func:`first_problem`), build the specs (a missing preset or an invalid scene
-    is bad input too: exit 2, before anything runs), run them with the common options into
+    is bad input too: all raise :class:`StudyInputError` before anything runs), run them with the common options into
     ``out_dir``, write ``outcomes.json``. Returns (exit code to return now, or None; the
     outcomes)."""
     import engine
 
+    from .api import StudyInputError
+
     if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2, []
+        raise StudyInputError(problem)
     from engine.output_paths import OutputPathError, check_output_dir
 
     try:  # a folder (created if missing, its parent must exist), never a file or a device
         check_output_dir(out_dir, "-o/--output")
     except OutputPathError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2, []
+        raise StudyInputError(str(exc)) from None
     try:
         specs = make_specs()
         for s in specs:  # every scene valid before anything runs
             engine.parse_scene(s.scene)
     except engine.SceneError as exc:
-        print("error: invalid scene: " + "; ".join(str(p) for p in exc.problems),
-              file=sys.stderr)
-        return 2, []
+        raise StudyInputError("invalid scene: " + "; ".join(str(p) for p in exc.problems)
+                              ) from None
     except KeyError as exc:  # a missing preset
-        print(f"error: {exc}", file=sys.stderr)
-        return 2, []
+        raise StudyInputError(str(exc.args[0] if exc.args else exc)) from None
     try:
         outcomes = run_many_from_args(specs, out_dir, args, desc=desc)
     except KeyboardInterrupt:

@@ -17,12 +17,13 @@ the wedge's scripted motion by the seed's hold-until-steady protocol (seed 4.2, 
 5. down to the full depth (``n_steps`` steps), then the same steps back out (phase
    ``unload``) to depth 0.
 
-Each ``engine.run`` call writes its own HDF5: the run writes these chunks into a scratch
-folder (``runs/.<run_id>.scratch/``), reads what it needs from each and deletes it, and keeps
-one HDF5 per run (``runs/<run_id>.h5``, layout in docs/studies.md): the force-depth table,
-the root force and wedge position and force against time for the whole cycle, and the node
-positions at every recorded equilibrium. A run that fails still writes that file with the
-records so far (attribute ``status = "failed"``) and keeps the chunk that failed.
+Each ``engine.run`` call (one hold window of the dynamic method) hands its frames to an
+in-memory observer (``engine.MemoryObserver``: the root force, the wedge's position and
+force, the node positions), with no file; the run keeps one HDF5 (``runs/<run_id>.h5``,
+layout in docs/studies.md): the force-depth table, the root force and wedge position and
+force against time for the whole cycle, and the node positions at every recorded
+equilibrium. A run that fails still writes that file with the records so far (attribute
+``status = "failed"``).
 
 No mass or density scaling is used: the equilibria are reached with the scene's own
 Cundall local damping (``environment.local_damping``, 0.3 in the wedge presets), which
@@ -33,7 +34,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import time
 from pathlib import Path
 from typing import Optional
@@ -81,9 +81,6 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
             inertia_scaling=p["qs_inertia_scaling"])
         d["run"]["dt_safety"] = p.get("qs_dt_safety", d["run"].get("dt_safety", 0.5))
     system = engine.build(engine.parse_scene(d))
-    scratch = h5_path.parent / f".{h5_path.stem}.scratch"
-    shutil.rmtree(scratch, ignore_errors=True)
-    scratch.mkdir(parents=True)
 
     series = {"time": [], "root_force_z": [], "wedge_depth": [], "wedge_force_z": []}
     rec = {k: [] for k in ("depth_m", "force_N", "phase", "root_force_z_N", "std_N",
@@ -91,25 +88,26 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
                            "wedge_force_z_N", "measured_depth_m")}
     snapshots: list = []
     costs = {"steps": 0, "engine_wall_s": 0.0, "chunks": 0}
-    state = {"p0": None, "last_nodes": None, "last_chunk": None}
+    state = {"p0": None, "last_nodes": None}
     n_stages = 1 + n_steps * (2 if p["unload"] else 1)
     t_wall0, t_cpu0 = time.perf_counter(), time.process_time()
     status, error = "completed", None
 
+    observed = ("time", f"brushes/{brush}/root_force", f"bodies/{body}/position",
+                f"bodies/{body}/contact_force", "nodes/positions")
+
     def advance(duration: float):
         api.check_cancel()  # a cancel of the study running this in-process stops here
-        path = scratch / f"chunk{costs['chunks']:05d}.h5"
-        state["last_chunk"] = path
-        res = engine.run(system, until=system.time + duration, output=path)
+        obs = engine.MemoryObserver(observed)  # the window's frames in memory, no file
+        res = engine.run(system, until=system.time + duration, output=False, observer=obs)
         costs["chunks"] += 1
         costs["steps"] += int(res.summary.get("steps", 0))
         costs["engine_wall_s"] += float(res.summary.get("wall_s", 0.0))
-        with engine.open_result(path) as r:
-            t = r.time
-            fz = r.series(f"brushes/{brush}/root_force")[:, 2]
-            pos = r.series(f"bodies/{body}/position")
-            wf = r.series(f"bodies/{body}/contact_force")[:, 2]
-            state["last_nodes"] = r.frame("nodes/positions", -1)
+        t = obs.time
+        fz = obs.series(f"brushes/{brush}/root_force")[:, 2]
+        pos = obs.series(f"bodies/{body}/position")
+        wf = obs.series(f"bodies/{body}/contact_force")[:, 2]
+        state["last_nodes"] = obs.frame("nodes/positions", -1)
         if state["p0"] is None:
             state["p0"] = pos[0].copy()
         depth = (pos - state["p0"]) @ direction
@@ -117,7 +115,6 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
         series["root_force_z"].append(fz)
         series["wedge_depth"].append(depth)
         series["wedge_force_z"].append(wf)
-        path.unlink()
         return fz, depth, wf
 
     def hold(stage: int, zero: Optional[float]):
@@ -183,18 +180,12 @@ def wedge_cycle(scene, h5_path: Path, params: dict) -> dict:
             h = hold(stage, zero)
             record(k * step, phase, h, zero)
             stage += 1
-    except engine.InstabilityError as exc:
-        status, error = "failed", exc
-        last = state["last_chunk"]
-        if last is not None and last.exists():  # keep the chunk that failed, for a look
-            os.replace(last, h5_path.with_name(h5_path.stem + ".failed_chunk.h5"))
-    except BaseException as exc:
+    except BaseException as exc:  # an InstabilityError included: the records so far are kept
         status, error = "failed", exc
     finally:
         wall = time.perf_counter() - t_wall0
         _write_run_h5(h5_path, scene, params, p, rec, series, snapshots, costs, system,
                       status, str(error) if error else None, wall, t_d)
-        shutil.rmtree(scratch, ignore_errors=True)
     if error is not None:
         raise error
     forces = rec["force_N"]

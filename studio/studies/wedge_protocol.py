@@ -1,14 +1,15 @@
 """The hold-until-steady protocol of the wedge-based studies (seed 4.2; the run itself is
 :func:`studio.studies.wedge.wedge_cycle`): its defaults and methods, the protocol of a scene
-(:func:`make_protocol`), and the ``--depth-mm`` ... options that set it (shared by the wedge,
+(:func:`make_protocol`), and the options that set it (:class:`ProtocolOptions`) (shared by the wedge,
 refinement, sensitivity and Monte Carlo commands)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Optional
+from typing import Literal, Optional
 
-from .api import ExecutionOptions
+from pydantic import Field
+
+from .options import StudyOptions
 from .wedge_scenes import StudyInputError, find_body
 
 PROTOCOL_DEFAULTS = {
@@ -115,63 +116,62 @@ def step_duration(step: float, max_acceleration: float) -> float:
 
 
 # ----------------------------------------------------------------------------- options
-@dataclass
-class ProtocolOptions(ExecutionOptions):
+PROTOCOL_GROUP = "protocol (defaults: the scene's wedge profile; docs/studies.md)"
+
+
+def _protocol(description: str, unit: Optional[str] = None, metavar: Optional[str] = None,
+              **bounds):
+    """A protocol option: ``None`` by default (the scene's profile, or
+    :data:`PROTOCOL_DEFAULTS`), in the protocol group of the command's help."""
+    extra = {"group": PROTOCOL_GROUP}
+    if unit:
+        extra["unit"] = unit
+    if metavar:
+        extra["metavar"] = metavar
+    return Field(None, description=description, json_schema_extra=extra, **bounds)
+
+
+class ProtocolOptions(StudyOptions):
     """The hold-until-steady protocol of the wedge-based studies (``None``: the scene's
-    wedge profile, or :data:`PROTOCOL_DEFAULTS`; the ``--depth-mm`` ... options)."""
+    wedge profile, or :data:`PROTOCOL_DEFAULTS`)."""
 
-    depth_mm: Optional[float] = None            # full depth, mm
-    nodes: Optional[int] = None                 # nodes per bristle
-    max_acceleration: Optional[float] = None    # a_m of each step, m/s^2
-    window: Optional[float] = None              # hold window, s
-    threshold: Optional[float] = None           # steady when the force's std is below, N
-    rel_threshold: Optional[float] = None       # ... or this fraction of the force
-    max_hold: Optional[float] = None            # longest hold after a step, s
-    no_unload: bool = False                     # loading only
-    method: Optional[str] = None                # "quasi-static" (default) | "dynamic"
-    qs_max_acceleration: Optional[float] = None
-    qs_increments: Optional[int] = None
-
-
-
-def add_protocol_options(p) -> None:
-    """Options of the hold-until-steady protocol (shared by the wedge-based studies)."""
-    g = p.add_argument_group("protocol (defaults: the scene's wedge profile; docs/studies.md)")
-    g.add_argument("--depth-mm", type=float, metavar="MM",
-                   help="full depth in mm (default: n_steps x step of the wedge's profile)")
-    g.add_argument("--nodes", type=int, metavar="N",
-                   help="nodes per bristle (default: the scene's)")
-    g.add_argument("--max-acceleration", type=float, metavar="A",
-                   help="a_m of each step, m/s^2 (default: the profile's)")
-    g.add_argument("--window", type=float, metavar="S",
-                   help=f"hold window, s (default {PROTOCOL_DEFAULTS['window']})")
-    g.add_argument("--threshold", type=float, metavar="N",
-                   help=f"std of the root force that counts as steady, N (default "
-                        f"{PROTOCOL_DEFAULTS['threshold']:g}; or --rel-threshold times the "
-                        f"force, whichever is larger)")
-    g.add_argument("--rel-threshold", type=float, metavar="F",
-                   help=f"(default {PROTOCOL_DEFAULTS['rel_threshold']:g})")
-    g.add_argument("--max-hold", type=float, metavar="S",
-                   help=f"longest hold after a step, s (default {PROTOCOL_DEFAULTS['max_hold']})")
-    g.add_argument("--no-unload", action="store_true", help="loading only")
-    g.add_argument("--method", choices=[m.replace("_", "-") for m in METHODS],
-                   help="quasi-static (default): each hold ends when the out-of-balance force "
-                        "and kinetic energy are below the tolerance, with strong local damping "
-                        "and scaled rotational inertia; dynamic: the seed's protocol, windows "
-                        "of the scene's own dynamics until the force's spread is small")
-    g.add_argument("--qs-max-acceleration", type=float, metavar="A",
-                   help=f"quasi-static: a_m of each increment's move, m/s^2 (default "
-                        f"{PROTOCOL_DEFAULTS['qs_max_acceleration']:g})")
-    g.add_argument("--qs-increments", type=int, metavar="N",
-                   help=f"quasi-static: increments per step, each settled and its slip "
-                        f"committed (default {PROTOCOL_DEFAULTS['qs_increments']})")
+    depth_mm: Optional[float] = _protocol(
+        "full depth in mm (default: n_steps x step of the wedge's profile)", "mm", "MM",
+        gt=0, le=1000)
+    nodes: Optional[int] = _protocol("nodes per bristle (default: the scene's)", None, "N",
+                                     ge=2, le=4096)
+    max_acceleration: Optional[float] = _protocol(
+        "a_m of each step, m/s^2 (default: the profile's)", "m/s^2", "A", gt=0)
+    window: Optional[float] = _protocol(
+        f"hold window, s (default {PROTOCOL_DEFAULTS['window']})", "s", "S", gt=0)
+    threshold: Optional[float] = _protocol(
+        f"std of the root force that counts as steady, N (default "
+        f"{PROTOCOL_DEFAULTS['threshold']:g}; or --rel-threshold times the force, whichever "
+        f"is larger)", "N", "N", gt=0)
+    rel_threshold: Optional[float] = _protocol(
+        f"fraction of the force that counts as steady (default "
+        f"{PROTOCOL_DEFAULTS['rel_threshold']:g})", None, "F", ge=0, lt=1)
+    max_hold: Optional[float] = _protocol(
+        f"longest hold after a step, s (default {PROTOCOL_DEFAULTS['max_hold']})", "s", "S",
+        gt=0)
+    no_unload: bool = Field(False, description="loading only",
+                            json_schema_extra={"group": PROTOCOL_GROUP})
+    method: Optional[Literal["quasi-static", "dynamic"]] = _protocol(
+        "quasi-static (default): each hold ends when the out-of-balance force and kinetic "
+        "energy are below the tolerance, with strong local damping and scaled rotational "
+        "inertia; dynamic: the seed's protocol, windows of the scene's own dynamics until the "
+        "force's spread is small")
+    qs_max_acceleration: Optional[float] = _protocol(
+        f"quasi-static: a_m of each increment's move, m/s^2 (default "
+        f"{PROTOCOL_DEFAULTS['qs_max_acceleration']:g})", "m/s^2", "A", gt=0)
+    qs_increments: Optional[int] = _protocol(
+        f"quasi-static: increments per step, each settled and its slip committed (default "
+        f"{PROTOCOL_DEFAULTS['qs_increments']})", None, "N", ge=1, le=1000)
 
 
 def protocol_from_options(scene: dict, options: "ProtocolOptions") -> dict:
     """The protocol of ``scene`` for the options of a wedge-based study."""
     o = options
-    if o.nodes is not None and not 2 <= o.nodes <= 4096:
-        raise StudyInputError(f"--nodes = {o.nodes}: must be in 2 .. 4096")
     return make_protocol(scene, depth=None if o.depth_mm is None else o.depth_mm * 1e-3,
                          max_acceleration=o.max_acceleration, unload=not o.no_unload,
                          window=o.window, threshold=o.threshold,

@@ -10,13 +10,10 @@ import math
 from pathlib import Path
 from typing import Optional
 
+from .api import StudyInputError
 from .study_command import number_list
 
 DEFAULT_PRESET = "wedge_60"
-
-
-class StudyInputError(ValueError):
-    """A bad study input (a scene without the wedge, a bad option value)."""
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -70,7 +67,9 @@ def set_wedge_angle(scene: dict, angle_deg: float, body: str = "wedge") -> dict:
     return scene
 
 
-def _parse_angles(text: str) -> list[float]:
+def _parse_angles(text) -> list[float]:
+    if isinstance(text, (list, tuple)):
+        text = ",".join(f"{float(a):g}" for a in text)
     try:
         angles = number_list(text, float, f"--angles {text!r}: expected degrees like 30,45,60,75")
     except ValueError as exc:
@@ -85,10 +84,11 @@ def safe_id(text: str) -> str:
     return s or "run"
 
 
-def resolve_scenes(presets: list[str], angles: Optional[str], body: str = "wedge"
+def resolve_scenes(presets: list[str], angles, body: str = "wedge"
                    ) -> list[tuple[str, dict, str]]:
     """``[(run_id, scene dict, where it came from)]`` for the command's options: each
-    ``--preset``; or for each of ``--angles`` the preset ``wedge_<angle>`` (or, with one
+    ``--preset``; or for each of ``--angles`` (a list of degrees, or their text
+    ``"30,45"``) the preset ``wedge_<angle>`` (or, with one
     ``--preset``, that scene with the angle changed); or the default preset."""
     out = []
     if angles:

@@ -14,32 +14,43 @@ import csv
 import os
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
+
+from pydantic import Field
 
 from . import api
 from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
-from .study_command import (check_common_options, report_failures, run_many_from_args,
-                            set_command)
+from .study_command import report_failures, run_many_from_args, set_command
 from .wedge import (INCREMENT_TOLERANCE, TASK, curve_checks, increment_check,
                     numeric_summary)
-from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, add_protocol_options,
-                             protocol_from_options, step_duration)
+from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, protocol_from_options,
+                             step_duration)
 from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
                            validate_scenes, wedge_angle_deg)
-from ..exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED
+from ..exit_codes import EXIT_CANCELLED, EXIT_FAILED
 
 
-@dataclass
 class Options(ProtocolOptions):
-    """``brush-studio study wedge``: the scenes (preset names or files; default wedge_60)
-    and wedge angles (``"30,45,60"``)."""
+    """``brush-studio study wedge``: the scenes (preset names or files; default wedge_60),
+    the wedge angles and the protocol."""
 
-    preset: list = field(default_factory=list)
-    angles: Optional[str] = None
-    check_increment: bool = False  # rerun each scene with halved increments and compare
+    preset: list[str] = Field(
+        default_factory=list,
+        description="scene file or preset name (repeat for several; default wedge_60)",
+        json_schema_extra={"metavar": "SCENE", "scene": True,
+                                           "design": True})
+    angles: list[Annotated[float, Field(gt=0, lt=180)]] = Field(
+        default_factory=list,
+        description="wedge angles in degrees, e.g. 30,45,60,75: the presets wedge_<angle> "
+                    "(or one --preset with its angle changed)",
+        json_schema_extra={"metavar": "DEG,...", "unit": "deg"})
+    check_increment: bool = Field(
+        False, description="quasi-static: run every scene again with each step in twice as "
+                           "many increments and report the largest change of the recorded "
+                           f"force (study.json increment_check; converged within "
+                           f"{INCREMENT_TOLERANCE * 100:g} %?); about 1.8x the CPU")
 
 
 INCREMENT_CHECK_SUFFIX = "_half_increment"
@@ -58,27 +69,12 @@ def add_parser(sub) -> None:
                     "full depth and back out. Writes DIR/force_depth.csv (depth_m,force_N,"
                     "phase), DIR/force_depth.png, DIR/wedge_records.csv, DIR/study.json and "
                     "one HDF5 per run in DIR/runs/.")
-    p.add_argument("--preset", action="append", default=[], metavar="SCENE",
-                   help="scene file or preset name (repeat for several; default wedge_60)")
-    p.add_argument("--angles", metavar="DEG,...",
-                   help="wedge angles in degrees, e.g. 30,45,60,75: the presets wedge_<angle> "
-                        "(or one --preset with its angle changed)")
-    p.add_argument("--check-increment", action="store_true",
-                   help="quasi-static: run every scene again with each step in twice as many "
-                        "increments and report the largest change of the recorded force "
-                        f"(study.json increment_check; converged within "
-                        f"{INCREMENT_TOLERANCE * 100:g} %%?); about 1.8x the CPU")
-    add_protocol_options(p)
     set_command(p, run, Options)
 
 
 def _run_study(options: Options, out: Path) -> int:
     import engine
 
-    msg = check_common_options(options)
-    if msg:
-        _err(msg)
-        return EXIT_BAD_INPUT
     try:
         scenes = resolve_scenes(options.preset, options.angles)
         specs = []
@@ -91,23 +87,18 @@ def _run_study(options: Options, out: Path) -> int:
                                                           scene["brushes"]],
                                               "protocol": proto}, TASK))
     except engine.SceneError as exc:
-        _err("invalid scene: " + "; ".join(str(p) for p in exc.problems))
-        return EXIT_BAD_INPUT
-    except StudyInputError as exc:
-        _err(str(exc))
-        return EXIT_BAD_INPUT
+        raise StudyInputError("invalid scene: " + "; ".join(str(p) for p in exc.problems)
+                              ) from None
     bad = validate_scenes([s.scene for s in specs])
     if bad:
-        _err(bad)
-        return EXIT_BAD_INPUT
+        raise StudyInputError(bad)
     checks = []
     if options.check_increment:
         for s in specs:
             pr = s.params["protocol"]
             if pr["method"] != "quasi_static":
-                _err("--check-increment needs the quasi-static method: the dynamic method's "
-                     "steps are not split into increments")
-                return EXIT_BAD_INPUT
+                raise StudyInputError("--check-increment needs the quasi-static method: the "
+                                      "dynamic method's steps are not split into increments")
             finer = dict(pr, qs_increments=2 * int(pr["qs_increments"]))
             checks.append(RunSpec(s.run_id + INCREMENT_CHECK_SUFFIX, s.scene,
                                   dict(s.params, protocol=finer), TASK))

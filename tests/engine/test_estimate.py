@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.estimate import _frustum, estimate
+from engine.estimate import estimate
 
 PRESETS = sorted(glob.glob(str(Path(__file__).resolve().parents[2] / "static_presets" /
                                 "*.json")))
@@ -32,13 +32,33 @@ def test_estimated_dt_is_the_builds_where_bristles_set_it(path):
     assert cost.steps == pytest.approx(np.ceil(scene.run.duration / cost.dt))
 
 
-def test_the_frustum_stiffnesses_are_the_builds():
-    # catches the copy drifting from the build's element (a tapered or a uniform bond)
-    from engine.build_bristles import frustum_bond_stiffness
+def test_one_element_for_the_build_and_the_estimate():
+    # catches a second copy of the element's formulas (the estimate's dt drifting from the
+    # build's bristles) and masses that lose part of the bristle
+    import math
 
-    for r0, r1 in ((2e-4, 2e-4), (3e-4, 1e-4)):
-        assert _frustum(2e9, 7e8, r0, r1, 1e-3) == pytest.approx(
-            frustum_bond_stiffness(2e9, 7e8, r0, r1, 1e-3), rel=1e-12)
+    import engine.build_bristles as build_bristles
+    import engine.estimate as estimate_module
+    from engine.element import frustum_bond_stiffness, node_masses
+
+    assert build_bristles.frustum_bond_stiffness is frustum_bond_stiffness
+    assert build_bristles.node_masses is node_masses
+    assert not hasattr(estimate_module, "_frustum")
+    # the segments of a linear taper partition one frustum: the node masses sum to its
+    # closed-form mass rho pi L (R0^2 + R0 R1 + R1^2) / 3 (round-off only: 1e-12)
+    rho, length, R0, R1, n = 1100.0, 0.03, 8e-4, 3e-4, 9
+    r = R0 + (R1 - R0) * np.linspace(0, 1, n)
+    mass, inertia = node_masses(rho, r, length / (n - 1))
+    whole = rho * math.pi * length * (R0 * R0 + R0 * R1 + R1 * R1) / 3.0
+    assert mass.sum() == pytest.approx(whole, rel=1e-12)
+    assert inertia == pytest.approx(0.5 * mass * r ** 2, rel=1e-15)
+    # a uniform bond is the seed's beam (eq. 3.1): 12 E I / L^3 and E I / L, no coupling
+    E, G, rad, L = 2e9, 7e8, 2e-4, 1e-3
+    I = math.pi * rad ** 4 / 4
+    kn, ks, kb, ksb, kt = frustum_bond_stiffness(E, G, rad, rad, L)
+    assert (kn, ks, kb, ksb, kt) == pytest.approx(
+        (E * math.pi * rad ** 2 / L, 12 * E * I / L ** 3, E * I / L, 0.0, G * 2 * I / L),
+        rel=1e-12)
 
 
 def test_a_huge_scene_is_estimated_at_once(tiny_scene):

@@ -104,6 +104,7 @@ def test_library_and_studies_answers_match_the_document(contract):
                   files={"file": ("box.txt", b"x")}).status_code == 422
     c.call("GET", "/api/meshes", "/api/meshes")
     c.call("GET", "/api/study-types", "/api/study-types")
+    c.call("GET", "/api/study-types/{study}/schema", "/api/study-types/wedge/schema")
     c.call("GET", "/api/studies", "/api/studies")
     assert c.call("POST", "/api/studies", "/api/studies",
                   json={"study": "nope"}).status_code == 422

@@ -8,32 +8,35 @@ import time
 
 import pytest
 
-from studio.jobs import STUDIES, StudyOptionError, study_argv, study_options
+from studio.jobs import STUDIES, StudyOptionError, make_options, study_options, study_schema
 from studio.presets import preset_path
 
 TINY_WEDGE = {"preset": "wedge_60", "depth_mm": 2, "nodes": 3}  # ~10 s warm
 
 
 # ----------------------------------------------------------------------------- unit
-def test_options_map_to_the_study_command_line():
-    argv = study_argv("wedge", {"preset": "wedge_60", "depth_mm": 3, "nodes": 4,
-                                "no_unload": True, "max-hold": 0.5})
-    assert argv == [f"--preset={preset_path('wedge_60')}", "--depth-mm=3", "--nodes=4",
-                    "--no-unload", "--max-hold=0.5"]
-    # a false flag is left out; a list for a plain option is joined with commas; an
-    # append option (preset) is repeated
-    assert study_argv("wedge", {"no_unload": False, "angles": [30, 60]}) == ["--angles=30,60"]
-    assert study_argv("sensitivity", {"preset": ["wedge_30", "wedge_45"]}) == [
-        f"--preset={preset_path('wedge_30')}", f"--preset={preset_path('wedge_45')}"]
-    # convergence: the scene is its positional argument, a preset name
-    assert study_argv("convergence", {"scene": "rod_tip_impulse", "quantity": "tip_deflection",
-                                      "ladder": "n_nodes=3,5"}) == [
-        str(preset_path("rod_tip_impulse")), "--quantity=tip_deflection",
-        "--ladder=n_nodes=3,5"]
-    # every study has a parser and lists its options without the server-only ones
+def test_options_become_the_study_model():
+    o = make_options("wedge", {"preset": "wedge_60", "depth_mm": 3, "nodes": 4,
+                               "no_unload": True, "max-hold": 0.5})
+    assert o.preset == [str(preset_path("wedge_60"))] and o.depth_mm == 3.0
+    assert o.nodes == 4 and o.no_unload and o.max_hold == 0.5
+    # a list for a list option, or one value; text lists split at commas
+    assert make_options("wedge", {"angles": [30, 60]}).angles == [30.0, 60.0]
+    assert make_options("wedge", {"angles": "30,60"}).angles == [30.0, 60.0]
+    assert make_options("sensitivity", {"preset": ["wedge_30", "wedge_45"]}).preset == [
+        str(preset_path("wedge_30")), str(preset_path("wedge_45"))]
+    # convergence: the scene (its positional argument) is a preset name too
+    c = make_options("convergence", {"scene": "rod_tip_impulse", "quantity": "tip_deflection",
+                                     "ladder": "n_nodes=3,5"})
+    assert c.scene == str(preset_path("rod_tip_impulse")) and c.ladder == "n_nodes=3,5"
+    # every study lists its options without the server-only ones, and has a JSON schema
     for s in STUDIES:
         names = {o["name"] for o in study_options(s)}
         assert not names & {"output", "scheduler", "workers", "no_progress", "quiet"}, s
+        assert names <= set(study_schema(s)["properties"]), s
+    depth = next(o for o in study_options("wedge") if o["name"] == "depth_mm")
+    assert depth["unit"] == "mm" and depth["gt"] == 0
+    assert study_schema("wedge")["properties"]["depth_mm"]["unit"] == "mm"
 
 
 @pytest.mark.parametrize("study, options, where, text", [
@@ -47,14 +50,15 @@ def test_options_map_to_the_study_command_line():
     ("convergence", {"scene": "/work/x.json", "quantity": "tip_deflection"}, "scene",
      "not a preset name"),
     ("wedge", {"depth": 3}, "depth", "unknown option"),
-    ("wedge", {"nodes": "abc"}, "options", "invalid int value"),
+    ("wedge", {"nodes": "abc"}, "nodes", "valid integer"),
+    ("wedge", {"depth_mm": 2000}, "depth_mm", "less than or equal to 1000"),
     ("wedge", {"no_unload": "yes"}, "no_unload", "true or false"),
-    ("wedge", {"nodes": {"a": 1}}, "nodes", "number or text"),
-    ("convergence", {"scene": "rod_tip_impulse"}, "options", "required"),
+    ("wedge", {"nodes": {"a": 1}}, "nodes", "valid integer"),
+    ("convergence", {"scene": "rod_tip_impulse"}, "quantity", "required"),
 ])
 def test_bad_study_options_are_refused_with_the_option_named(study, options, where, text):
     with pytest.raises(StudyOptionError) as exc:
-        study_argv(study, options)
+        make_options(study, options)
     assert exc.value.problems[0][0] == where
     assert text in str(exc.value)
 
@@ -64,7 +68,9 @@ def test_bad_study_requests_get_422_with_clear_messages(server):
     c = server.client
     cases = [({"study": "nope"}, "unknown study"),
              ({"study": "wedge", "options": {"depth": 3}}, "unknown option"),
-             ({"study": "wedge", "options": {"nodes": "x"}}, "invalid int value"),
+             ({"study": "wedge", "options": {"nodes": "x"}}, "valid integer"),
+             ({"study": "wedge", "options": {"depth_mm": -1}}, "depth_mm = -1: Input should "
+                                                               "be greater than 0"),
              ({"study": "wedge", "options": {"output": "/tmp/evil"}}, "not accepted"),
              ({"study": "wedge", "options": {"preset": "/etc/passwd"}}, "not a preset"),
              ({"options": {}}, "'study'"),
@@ -88,7 +94,9 @@ def test_a_tiny_wedge_study_runs_as_a_job_and_its_files_download(server, tmp_pat
         sid = client.submit_study("wedge", TINY_WEDGE, name="tiny wedge")
         info = client.study(sid)
         assert info["kind"] == "study" and info["study"] == "wedge"
-        assert info["options"] == TINY_WEDGE
+        # the job stores the validated model's dict: one copy, scene names resolved
+        assert info["options"]["depth_mm"] == 2 and info["options"]["nodes"] == 3
+        assert info["options"]["preset"] == [str(preset_path("wedge_60"))]
         seen_running = False
         deadline = time.monotonic() + 300  # a cold numba cache compiles first
         while time.monotonic() < deadline:
@@ -126,6 +134,35 @@ def test_a_tiny_wedge_study_runs_as_a_job_and_its_files_download(server, tmp_pat
         assert sid in [s["id"] for s in client.studies()]
         assert sid not in [r["id"] for r in client.list()]
         assert server.client.get("/api/studies/0123456789ab").status_code == 404
+
+
+def test_bad_study_input_reaches_the_job_error_whole(server):
+    """A value the model accepts but the scene contradicts (1.5 mm is not a whole number of
+    the wedge's 1 mm steps) is the study's StudyInputError: the job fails with that message
+    in its error, not a log tail."""
+    c = server.client
+    r = c.post("/api/studies", json={"study": "wedge", "options": {
+        "preset": "wedge_60", "depth_mm": 1.5, "nodes": 3}})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    deadline = time.monotonic() + 120
+    while (info := c.get(f"/api/studies/{sid}").json())["status"] in ("queued", "running"):
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    assert info["status"] == "failed" and info["summary"]["exit_code"] == 2, info
+    assert "bad input: depth 0.0015 m is not a whole number (>= 1) of 0.001 m steps" \
+        in info["error"], info["error"]
+
+
+def test_the_option_schema_of_every_study_is_served(server):
+    c = server.client
+    for study in STUDIES:
+        r = c.get(f"/api/study-types/{study}/schema")
+        assert r.status_code == 200, (study, r.text)
+        assert r.json() == study_schema(study)
+    wedge = c.get("/api/study-types/wedge/schema").json()["properties"]["depth_mm"]
+    assert wedge["unit"] == "mm" and wedge["anyOf"][0]["exclusiveMinimum"] == 0
+    assert c.get("/api/study-types/nope/schema").status_code == 404
 
 
 def test_a_running_study_is_cancelled(server):

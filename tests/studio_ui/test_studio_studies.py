@@ -7,41 +7,62 @@ import math
 import numpy as np
 import pytest
 
-from studio.jobs import StudyOptionError, study_argv
-from studio.panels.studies_tab import (FORMS, FormError, convergence_figure, convergence_markdown,
-                               form_options, png_array)
+from studio.jobs import StudyOptionError, make_options
+from studio.panels.studies_tab import (CURRENT_DESIGN, DEFAULT_CHOICE, STUDY_NAMES, FormError,
+                                       _initial, convergence_figure, convergence_markdown,
+                                       form_options, form_spec, png_array)
 
 
 def _defaults(study: str) -> dict:
-    return {name: default for name, _kind, default, _label in FORMS[study]}
+    return {f["name"]: _initial(f) for f in form_spec(study)}
 
 
-def test_every_form_default_is_a_valid_study_command_line():
-    for study in FORMS:
+def test_every_form_default_is_the_study_models_default():
+    """The form is generated from the model: untouched, it sends nothing the model would not
+    default to (no second set of defaults, issue 23), so the scene's resolution and depth
+    stay the scene's (issue 29 item 6)."""
+    for study in STUDY_NAMES:
         options = form_options(study, _defaults(study))
-        argv = study_argv(study, options)  # the study's own parser accepts it
-        assert argv, study
-    assert set(FORMS) >= {"wedge", "spin", "refinement", "convergence"}
+        extra = {"quantity": "tip_deflection", "ladder": "n_nodes=3,5",
+                 "scene": "rod_weight_static"} if study == "convergence" else {}
+        assert options == {}, (study, options)
+        typed = make_options(study, {**options, **extra})
+        model = type(typed)
+        for f in form_spec(study):
+            if f["name"] not in extra:
+                assert getattr(typed, f["name"]) == model.model_fields[f["name"]].get_default(
+                    call_default_factory=True), (study, f["name"])
+    assert "nodes" not in form_options("wedge", dict(_defaults("wedge"), nodes="  "))
 
 
 def test_form_values_map_to_options():
-    values = dict(_defaults("wedge"), depth_mm=3.0, nodes=4.0, no_unload=True)
-    assert form_options("wedge", values) == {"preset": "wedge_60", "depth_mm": 3.0,
-                                             "nodes": 4, "no_unload": True}
+    values = dict(_defaults("wedge"), depth_mm="3", nodes="4", no_unload=True,
+                  preset="wedge_60")
+    assert form_options("wedge", values) == {"preset": ["wedge_60"], "depth_mm": "3",
+                                             "nodes": "4", "no_unload": True}
+    typed = make_options("wedge", form_options("wedge", values))
+    assert typed.depth_mm == 3.0 and typed.nodes == 4 and typed.no_unload
     # empty text fields and false flags are left out; "other options" JSON overrides
     conv = dict(_defaults("convergence"), dt_factor="  ")
     opts = form_options("convergence", conv, '{"reference": "finest", "ladder": "n_nodes=3,5"}')
     assert "dt_factor" not in opts and opts["reference"] == "finest"
-    assert opts["ladder"] == "n_nodes=3,5" and opts["scene"] == "rod_weight_static"
+    assert opts["ladder"] == "n_nodes=3,5"
     assert "no_unload" not in form_options("wedge", _defaults("wedge"))
+    assert form_options("wedge", {"preset": DEFAULT_CHOICE}) == {}
+
+
+def test_form_labels_carry_the_models_units():
+    labels = {f["name"]: f["label"] for f in form_spec("wedge")}
+    assert labels["depth_mm"] == "depth [mm]" and labels["preset"] == "preset"
+    # a scene option that takes any design starts the form on the current design
+    assert {f["name"] for f in form_spec("wedge") if f["design"]} == {"preset"}
+    assert CURRENT_DESIGN == "(current design)"
 
 
 @pytest.mark.parametrize("study, values, extra, text", [
-    ("wedge", {"nodes": 3.5}, "", "whole number"),
-    ("wedge", {"depth_mm": "deep"}, "", "not a number"),
-    ("wedge", {"depth_mm": math.inf}, "", "finite"),
     ("wedge", {}, "{not json", "not JSON"),
     ("wedge", {}, "[1, 2]", "JSON object"),
+    ("wedge", {"bogus": 1}, "", "not an option"),
     ("nope", {}, "", "unknown study"),
 ])
 def test_bad_form_values_are_refused(study, values, extra, text):
@@ -49,10 +70,22 @@ def test_bad_form_values_are_refused(study, values, extra, text):
         form_options(study, values, extra)
 
 
+@pytest.mark.parametrize("values, where, text", [
+    ({"nodes": "3.5"}, "nodes", "valid integer"),
+    ({"depth_mm": "deep"}, "depth_mm", "valid number"),
+    ({"depth_mm": "-1"}, "depth_mm", "greater than 0"),
+    ({"depth_mm": math.inf}, "depth_mm", "finite"),
+])
+def test_bad_form_values_are_refused_by_the_model(values, where, text):
+    with pytest.raises(StudyOptionError) as exc:
+        make_options("wedge", form_options("wedge", values))
+    assert exc.value.problems[0][0] == where and text in str(exc.value)
+
+
 def test_options_the_server_sets_are_refused_from_the_form_too():
     opts = form_options("wedge", _defaults("wedge"), '{"output": "/tmp/x"}')
     with pytest.raises(StudyOptionError, match="output folder is the job's own"):
-        study_argv("wedge", opts)
+        make_options("wedge", opts)
 
 
 def _table():

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 from studio import study_charts as sc
-from studio.jobs import StudyOptionError, study_argv
+from studio.jobs import StudyOptionError, make_options
 
 
 def _write(path, text):
@@ -79,11 +79,11 @@ def test_study_eta_from_progress_and_elapsed_time():
 
 def test_a_stored_design_is_a_study_scene(tmp_path):
     (tmp_path / "abc123.json").write_text("{}")
-    argv = study_argv("wedge", {"preset": "design:abc123"}, designs_dir=tmp_path)
-    assert argv == [f"--preset={tmp_path / 'abc123.json'}"]
+    opts = make_options("wedge", {"preset": "design:abc123"}, designs_dir=tmp_path)
+    assert opts.preset == [str(tmp_path / "abc123.json")]
     for bad in ("design:../abc123", "design:nothere", "design:"):
         with pytest.raises(StudyOptionError,
                            match="no stored design"):
-            study_argv("wedge", {"preset": bad}, designs_dir=tmp_path)
+            make_options("wedge", {"preset": bad}, designs_dir=tmp_path)
     with pytest.raises(StudyOptionError, match="not available"):
-        study_argv("wedge", {"preset": "design:abc123"})  # no designs folder: refused
+        make_options("wedge", {"preset": "design:abc123"})  # no designs folder: refused

@@ -2,17 +2,19 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Literal, Optional
+
+from pydantic import Field
 
 from ...console import print_scene_error
-from ...exit_codes import EXIT_BAD_INPUT, EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
+from ...exit_codes import EXIT_CANCELLED, EXIT_FAILED, EXIT_OK
 from .quantities import ConvergenceError, QUANTITY_HELP, parse_quantity
 from .ladder import parse_factors, parse_ladder
 from .protocol_ladder import parse_protocol_ladder
 from .running import run_convergence
 from .. import api
+from ..options import StudyOptions
 from ..study_command import set_command
 
 
@@ -20,36 +22,45 @@ def _err(msg: str) -> None:
     print(msg, file=sys.stderr)
 
 
-@dataclass
-class Options:
+class Options(StudyOptions):
     """``brush-studio convergence``: ``scene`` (a scene file) or ``preset`` (a preset name or
     scene file, as the studies' ``--preset``) run at a ladder of resolutions (``ladder``
-    "n_nodes=3,5,9" and/or ``dt_factor`` "1,0.5") or of the wedge's loading (``ladder``
+    "n_nodes=3,5,9" and/or ``dt_factor`` [1, 0.5]) or of the wedge's loading (``ladder``
     "qs_increments=1,2,4"), ``quantity`` measured in each against ``reference``."""
 
-    scene: Optional[str]
-    quantity: str
-    preset: Optional[str] = None
-    nodes: Optional[int] = None      # nodes per bristle of every level (not with n_nodes=)
-    ladder: Optional[str] = None
-    dt_factor: Optional[str] = None
-    reference: str = "auto"          # auto | analytic | richardson | finest
-    serial: bool = False             # the levels one after another in this process
-    scheduler: Optional[str] = None
-    workers: Optional[int] = None
-    quiet: bool = False              # no progress bar
-
-    @classmethod
-    def from_args(cls, args) -> "Options":
-        import dataclasses
-
-        return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)
-                      if hasattr(args, f.name)})
-
-    def to_dict(self) -> dict:
-        import dataclasses
-
-        return dataclasses.asdict(self)
+    scene: Optional[str] = Field(None, description="the scene file (or give --preset)",
+                                 json_schema_extra={"positional": True, "design": True,
+                                                    "metavar": "SCENE.json", "scene": True})
+    quantity: str = Field(description="quantity of interest (below)",
+                          json_schema_extra={"short": "-Q", "metavar": "NAME"})
+    preset: Optional[str] = Field(None, description="preset name or scene file, as the "
+                                                    "studies' --preset (instead of SCENE.json)",
+                                  json_schema_extra={"metavar": "SCENE", "scene": True})
+    ladder: Optional[str] = Field(
+        None, description="nodes per bristle of each level (every brush), increasing; or the "
+                          "wedge's loading: qs_increments=N1,N2,... (increments per step, "
+                          "increasing) or qs_max_acceleration=A1,A2,... (m/s^2, decreasing), "
+                          "each level a wedge study cycle (quantity wedge_force@DEPTH)",
+        json_schema_extra={"metavar": "n_nodes=N1,N2,..."})
+    nodes: Optional[int] = Field(None, ge=2, le=4096,
+                                 description="nodes per bristle of every level (default: the "
+                                             "scene's; not with --ladder n_nodes=..., whose "
+                                             "levels set their own)",
+                                 json_schema_extra={"metavar": "N"})
+    dt_factor: list[Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)]] = Field(
+        default_factory=list,
+        description="run.dt = factor x the level's automatic dt, decreasing; one value "
+                    "applies to every level, several pair up with --ladder",
+        json_schema_extra={"metavar": "F1,F2,..."})
+    reference: Literal["auto", "analytic", "richardson", "finest"] = Field(
+        "auto", description="what the errors are measured against (default auto: analytic, "
+                            "else Richardson, else the finest level)")
+    serial: bool = Field(False, description="run the levels one after another in this "
+                                            "process, without Dask (wall times undisturbed "
+                                            "by parallel levels)")
+    no_progress: bool = Field(False, description="no progress bar",
+                              json_schema_extra={"flags": ["-q", "--quiet", "--no-progress"],
+                                                 "group": "output and execution"})
 
 
 def _run_study(options: Options, out: Path) -> int:
@@ -60,37 +71,37 @@ def _run_study(options: Options, out: Path) -> int:
         q = parse_quantity(options.quantity)
         protocol = parse_protocol_ladder(options.ladder) if options.ladder else None
         n_nodes = parse_ladder(options.ladder) if options.ladder and not protocol else None
-        factors = parse_factors(options.dt_factor) if options.dt_factor else None
+        factors = (parse_factors(",".join(repr(f) for f in options.dt_factor))
+                   if options.dt_factor else None)
         if n_nodes is None and factors is None and protocol is None:
             raise ConvergenceError("give --ladder n_nodes=... and/or --dt-factor ..., or a "
                                    "loading ladder --ladder qs_increments=...")
         if (options.scene is None) == (options.preset is None):
             raise ConvergenceError("give the scene once: a SCENE.json argument or --preset "
                                    "NAME|FILE")
-        if options.nodes is not None and (n_nodes is not None or not 2 <= options.nodes <= 4096):
-            raise ConvergenceError(f"--nodes = {options.nodes}: " + (
-                "leave it out with an n_nodes ladder (each level sets its own)"
-                if n_nodes is not None else "must be in 2 .. 4096"))
+        if options.nodes is not None and n_nodes is not None:
+            raise ConvergenceError(f"--nodes = {options.nodes}: leave it out with an n_nodes "
+                                   f"ladder (each level sets its own)")
         scene = engine.load_scene(_scene_path(source))
         if options.nodes is not None:
             scene = _with_nodes(scene, options.nodes)
     except ConvergenceError as exc:
-        _err(f"error: {exc}")
-        return EXIT_BAD_INPUT
+        raise api.StudyInputError(str(exc)) from None
     except engine.SceneError as exc:
         print_scene_error(exc, f"invalid scene {source}")
-        return EXIT_BAD_INPUT
+        raise api.StudyInputError(f"invalid scene {source}: "
+                                  + "; ".join(str(p) for p in exc.problems)) from None
     try:
         table = run_convergence(scene, q, out, n_nodes=n_nodes, dt_factors=factors,
                                 reference=options.reference, serial=options.serial,
                                 scheduler=options.scheduler, workers=options.workers,
-                                progress=not options.quiet, protocol=protocol)
+                                progress=not options.no_progress, protocol=protocol)
     except ConvergenceError as exc:
-        _err(f"error: {exc}")
-        return EXIT_BAD_INPUT
+        raise api.StudyInputError(str(exc)) from None
     except engine.SceneError as exc:
         print_scene_error(exc, "invalid level scene")
-        return EXIT_BAD_INPUT
+        raise api.StudyInputError("invalid level scene: "
+                                  + "; ".join(str(p) for p in exc.problems)) from None
     except KeyboardInterrupt:
         _err("cancelled: finished levels are kept in the runs folder and reused next time")
         return EXIT_CANCELLED
@@ -150,36 +161,4 @@ def register(subparsers) -> None:
                "(rod.json: a static scene, e.g. static_presets/rod_weight_static.json)\n  "
                "brush-studio convergence --preset wedge_60 --quantity wedge_force@2mm "
                "--ladder qs_increments=1,2,4 -o wedge-increments")
-    p.add_argument("scene", metavar="SCENE.json", nargs="?", default=None,
-                   help="the scene file (or give --preset)")
-    p.add_argument("--preset", metavar="SCENE", default=None,
-                   help="preset name or scene file, as the studies' --preset (instead of "
-                        "SCENE.json)")
-    p.add_argument("--quantity", "-Q", required=True, metavar="NAME",
-                   help="quantity of interest (below)")
-    p.add_argument("--ladder", metavar="n_nodes=N1,N2,...",
-                   help="nodes per bristle of each level (every brush), increasing; or the "
-                        "wedge's loading: qs_increments=N1,N2,... (increments per step, "
-                        "increasing) or qs_max_acceleration=A1,A2,... (m/s^2, decreasing), "
-                        "each level a wedge study cycle (quantity wedge_force@DEPTH)")
-    p.add_argument("--nodes", type=int, metavar="N", default=None,
-                   help="nodes per bristle of every level (default: the scene's; not with "
-                        "--ladder n_nodes=..., whose levels set their own)")
-    p.add_argument("--dt-factor", metavar="F1,F2,...",
-                   help="run.dt = factor x the level's automatic dt, decreasing; one value "
-                        "applies to every level, several pair up with --ladder")
-    p.add_argument("-o", "--output", metavar="DIR", required=True, help="output folder")
-    p.add_argument("--reference", choices=("auto", "analytic", "richardson", "finest"),
-                   default="auto", help="what the errors are measured against (default auto: "
-                                        "analytic, else Richardson, else the finest level)")
-    p.add_argument("--serial", action="store_true",
-                   help="run the levels one after another in this process, without Dask "
-                        "(wall times undisturbed by parallel levels)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing Dask scheduler (tcp://host:port); default a local cluster")
-    p.add_argument("--workers", type=int, metavar="N",
-                   help="local cluster workers (default one per core)")
-    p.add_argument("-q", "--quiet", "--no-progress", dest="quiet", action="store_true",
-                   help="no progress bar")
-    # (its own -o/--output and execution options: --serial, -q/--quiet)
-    set_command(p, run, Options, common_options=False)
+    set_command(p, run, Options)
