@@ -35,7 +35,9 @@ from typing import Optional
 import numpy as np
 
 from . import api
-from .api import ExecutionOptions
+from pydantic import Field
+
+from .options import StudyOptions
 
 GAP = 0.002                 # m: the plate's face above the undeformed tips at the start
 PLATE_T = 0.02              # m: plate thickness
@@ -279,10 +281,11 @@ def compare(dem: dict, red: dict, scene: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- study
-def _floats(text: str, what: str, scale: float) -> list:
+def _floats(text, what: str, scale: float) -> list:
     from .study_command import number_list
 
-    values = number_list(text, float, f"{what} {text!r}: expected comma-separated numbers")
+    values = ([float(v) for v in text] if isinstance(text, list) else
+              number_list(text, float, f"{what} {text!r}: expected comma-separated numbers"))
     if not values or any(not math.isfinite(v) or v <= 0 for v in values):
         raise ValueError(f"{what} {text!r}: numbers > 0")
     return [v * scale for v in values]
@@ -347,21 +350,42 @@ def fit_law(outcomes, design: dict) -> dict:
             "target_material": design["target_material"]}
 
 
-@dataclass
-class Options(ExecutionOptions):
+_LIST = list[float]
+
+
+class Options(StudyOptions):
     """``brush-studio study reduce``."""
 
-    preset: str = "detumble_upper_stage"
-    depths: str = "10,20,30"           # press depths, mm
-    rates: str = "20,100"              # press rates, mm/s
-    slide_depths: str = "10,25"        # mm (the normal load of a slide)
-    speeds: str = "10,50"              # slide speeds, mm/s
-    impact_speeds: str = "50,150"      # held-out normal impact speeds, mm/s
-    impact_tangential: float = 50.0    # mm/s: the oblique held-out impact's tangential speed
-    impact_spin: float = 0.5           # rad/s: the spinning held-out impact's spin
-    rows: Optional[int] = None
-    columns: Optional[int] = None
-    n_nodes: Optional[int] = None
+    preset: str = Field("detumble_upper_stage",
+                        description="the scene whose first brush, materials and target "
+                                    "material are used (default detumble_upper_stage)",
+                        json_schema_extra={"metavar": "NAME_OR_FILE", "scene": True})
+    depths: _LIST = Field([10.0, 20.0, 30.0], min_length=1, description="press depths",
+                          json_schema_extra={"unit": "mm"})
+    rates: _LIST = Field([20.0, 100.0], min_length=1, description="press rates",
+                         json_schema_extra={"unit": "mm/s"})
+    slide_depths: _LIST = Field([10.0, 25.0], min_length=1,
+                                description="slide interferences (the normal load of a slide)",
+                                json_schema_extra={"unit": "mm"})
+    speeds: _LIST = Field([10.0, 50.0], min_length=1, description="slide speeds",
+                          json_schema_extra={"unit": "mm/s"})
+    impact_speeds: _LIST = Field([50.0, 150.0], min_length=1,
+                                 description="held-out impact normal speeds",
+                                 json_schema_extra={"unit": "mm/s"})
+    impact_tangential: float = Field(50.0, ge=0,
+                                     description="tangential speed of the oblique held-out "
+                                                 "impact",
+                                     json_schema_extra={"metavar": "MM_PER_S", "unit": "mm/s"})
+    impact_spin: float = Field(0.5, ge=0, description="spin about the normal of the spinning "
+                                                      "held-out impact",
+                               json_schema_extra={"metavar": "RAD_PER_S", "unit": "rad/s"})
+    rows: Optional[int] = Field(None, ge=1, description="brush rows (default: the preset's)")
+    columns: Optional[int] = Field(None, ge=1, description="bristles per row (default: the "
+                                                           "preset's)")
+    n_nodes: Optional[int] = Field(None, ge=2, le=4096,
+                                   description="nodes per bristle (default: the preset's)",
+                                   json_schema_extra={"flags": ["--nodes", "--n-nodes"],
+                                                      "metavar": "N"})
 
 
 def add_parser(study_subparsers) -> None:
@@ -372,27 +396,9 @@ def add_parser(study_subparsers) -> None:
         description="Fit the reduced brush law (a compliant patch: Hunt-Crossley-like normal "
                     "force, load- and speed-dependent friction, torsion from the patch size) "
                     "to short DEM presses and slides of a preset's brush against a flat "
-                    "plate, with 95 %% confidence intervals, and validate it on held-out DEM "
+                    "plate, with 95 % confidence intervals, and validate it on held-out DEM "
                     "impacts (peak force, Delta-v, Delta-omega, dissipated energy). Writes "
                     "law.json and validation.json. See docs/mission.md.")
-    p.add_argument("--preset", default="detumble_upper_stage", metavar="NAME_OR_FILE",
-                   help="the scene whose first brush, materials and target material are "
-                        "used (default detumble_upper_stage)")
-    for flag, default, what in (("--depths", "10,20,30", "press depths, mm"),
-                                ("--rates", "20,100", "press rates, mm/s"),
-                                ("--slide-depths", "10,25", "slide interferences, mm"),
-                                ("--speeds", "10,50", "slide speeds, mm/s"),
-                                ("--impact-speeds", "50,150",
-                                 "held-out impact normal speeds, mm/s")):
-        p.add_argument(flag, default=default, help=f"{what} (default {default})")
-    p.add_argument("--impact-tangential", type=float, default=50.0, metavar="MM_PER_S",
-                   help="tangential speed of the oblique held-out impact (default 50)")
-    p.add_argument("--impact-spin", type=float, default=0.5, metavar="RAD_PER_S",
-                   help="spin about the normal of the spinning held-out impact (default 0.5)")
-    p.add_argument("--rows", type=int, default=None, help="brush rows (default: preset's)")
-    p.add_argument("--columns", type=int, default=None, help="bristles per row")
-    p.add_argument("--nodes", "--n-nodes", dest="n_nodes", type=int, default=None,
-                   metavar="N", help="nodes per bristle (default: the preset's)")
     set_command(p, run, Options, default_output="study-reduce")
 
 
@@ -400,16 +406,15 @@ def _run_study(options: Options, out: Path) -> int:
     from engine.reduced_law import save_law
 
     from .run_files import write_json_atomic
-    from .study_command import check_common_options, report_failures, run_study
+    from .study_command import report_failures, run_study
 
-    problem = check_common_options(options)
+    problem = None
     design = None
-    if problem is None:
-        try:
-            design = _design(options.preset, options.rows, options.columns, options.n_nodes)
-            build_specs(options, design)      # checks the number lists
-        except (ValueError, KeyError, OSError) as exc:
-            problem = str(exc)
+    try:
+        design = _design(options.preset, options.rows, options.columns, options.n_nodes)
+        build_specs(options, design)      # checks the number lists
+    except (ValueError, KeyError, OSError) as exc:
+        problem = str(exc)
     code, outcomes = run_study(lambda: build_specs(options, design), out, options,
                                desc="reduce runs", problem=problem)
     if code is not None:
