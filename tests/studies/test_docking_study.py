@@ -30,9 +30,10 @@ def test_rigid_head_on_docking_rebounds_at_e_times_the_closing_speed(tmp_path):
         vt = res.series("bodies/target/velocity")[:, 0]
         f = np.linalg.norm(res.series("bodies/target/contact_force"), axis=1)
     assert f.max() > 0 and f[-1] == 0.0, "they touched and came apart within the run"
-    # 1 %: the bisection of the damping ratio and the O(dt) phase error of the contact's
-    # start and end, at ~50 steps per contact
-    assert (vt[-1] - vc[-1]) == pytest.approx(e * 0.03, rel=0.01)
+    # 3 %: the contact's start and end fall between steps; measured over a dt ladder
+    # (dt_safety 0.5 / 0.25 / 0.1: 0.486 / 0.505 / 0.493 of the closing speed) the rebound
+    # scatters by +-1.5 % around e without a trend, so 2x that is the bound
+    assert (vt[-1] - vc[-1]) == pytest.approx(e * 0.03, rel=0.03)
     # 1e-10: momentum is exchanged pairwise (equal and opposite), so only round-off
     assert np.linalg.norm(p1 - p0) / np.linalg.norm(p0) < 1e-10
 
@@ -58,8 +59,8 @@ def test_a_misaligned_target_starts_clear_of_the_brush_tips():
         chaser = next(b for b in scene["bodies"] if b["name"] == "chaser")
         brush = scene["brushes"][0]
         tips = chaser["shape"]["size"][0] / 2 + brush["bristle_length"] + brush["tip_radius"]
-        a = target["shape"]["size"][0] / 2
+        a, b = target["shape"]["size"][0] / 2, target["shape"]["size"][1] / 2
         q = target["pose"]["orientation"]
         angle = 2 * math.atan2(q[3], q[0])
-        near = target["pose"]["position"][0] - a * (math.cos(angle) + math.sin(abs(angle)))
+        near = target["pose"]["position"][0] - (a * math.cos(angle) + b * math.sin(abs(angle)))
         assert near - tips == pytest.approx(0.005, abs=1e-9)

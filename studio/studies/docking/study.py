@@ -27,7 +27,7 @@ from ..options import StudyOptions
 
 TASK = "studio.studies.docking.task:docking_task"
 #: the presets' simulated times at their 30 mm/s closing speed
-BRUSH_DURATION, RIGID_DURATION, PRESET_SPEED = 2.0, 0.1, 0.03
+BRUSH_DURATION, RIGID_DURATION, PRESET_SPEED = 2.0, 0.006, 0.03
 
 
 class Options(StudyOptions):
@@ -72,11 +72,12 @@ def docking_scene(speed: float, offset: float, misalignment: float, *, brush: bo
     target = next(b for b in scene["bodies"] if b["name"] == "target")
     a_c = chaser["shape"]["size"][0] / 2
     a_t = target["shape"]["size"][0] / 2
+    b_t = target["shape"]["size"][1] / 2
     x_face = chaser["pose"]["position"][0] + a_c
     # the preset's clearance between what touches first (tips or face) and the target
     clearance = target["pose"]["position"][0] - a_t - x_face
-    # turned about z, the target's near side reaches a (cos + sin) toward the chaser
-    reach = a_t * (math.cos(abs(misalignment)) + math.sin(abs(misalignment)))
+    # turned about z, the target's near side reaches a cos + b sin toward the chaser
+    reach = a_t * math.cos(misalignment) + b_t * math.sin(abs(misalignment))
     target["pose"] = {"position": [x_face + clearance + reach, offset, 0.0],
                       "orientation": _quat_z(misalignment)}
     chaser["velocity"] = [speed, 0.0, 0.0]

@@ -218,7 +218,7 @@ def _plots(out: Path, rows: list[dict], comparison: list[dict]) -> list[Path]:
                 continue
             with engine.open_result(h5) as res:
                 f = res.series("bodies/plate/contact_force")
-                names = [n for n in res.channels if n.endswith("/root_force")]
+                names = [n for n in res.channels() if n.endswith("/root_force")]
                 for n in names:
                     f = f - res.series(n)
                 ax.plot(res.time * 1e3, np.linalg.norm(f, axis=1), label=label)
