@@ -55,8 +55,13 @@ def test_study_scenes_put_the_projectile_on_the_presets_path():
         assert a["mass_properties"]["mass"] == pytest.approx(b["mass_properties"]["mass"],
                                                              rel=1e-12)
         if name == "space_fur":
-            assert made["brushes"][0] == pytest.approx(preset["brushes"][0]) or \
-                made["brushes"][0] == preset["brushes"][0]
+            mb, pb = made["brushes"][0], preset["brushes"][0]
+            assert mb.keys() == pb.keys()
+            for key in ("bristle_length", "root_radius", "tip_radius", "n_nodes", "rows",
+                        "columns"):
+                assert mb[key] == pytest.approx(pb[key], rel=1e-12), key
+            assert mb["pitch"] == pytest.approx(pb["pitch"], rel=1e-12)
+            assert mb["base"]["position"] == pytest.approx(pb["base"]["position"], abs=1e-15)
     assert fur_top(fur) == pytest.approx(0.0003 + 5e-5 + 0.02 + 0.0002, abs=1e-12)
 
 
