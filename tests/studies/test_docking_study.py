@@ -64,3 +64,19 @@ def test_a_misaligned_target_starts_clear_of_the_brush_tips():
         angle = 2 * math.atan2(q[3], q[0])
         near = target["pose"]["position"][0] - (a * math.cos(angle) + b * math.sin(abs(angle)))
         assert near - tips == pytest.approx(0.005, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["docking", "docking_rigid"])
+def test_smoke_run_of_the_docking_presets_stays_finite(name, tmp_path):
+    # a smoke test (it catches a preset the engine refuses, a NaN, a crash; not a number):
+    # 40 of the preset's own steps, every recorded channel finite
+    from studio import presets
+
+    scene = presets.load_preset(name)
+    system = engine.build(scene)
+    result = engine.run(system, until=40 * system.dt, output=tmp_path / f"{name}.h5")
+    assert result.status == "completed"
+    with result.open() as res:
+        for channel in res.channels():
+            assert np.all(np.isfinite(res.series(channel))), channel
+    assert "Seed chapter 5" in scene.description and "assum" in scene.description
