@@ -12,7 +12,8 @@ and every assumption it makes. SI units throughout.
 One module per preset family, beside this file: ``seed_values.py`` (what they share: the
 thesis's materials, friction angles and brush), ``rod_presets.py`` (seed 4.1),
 ``wedge_presets.py`` (4.2), ``spin_presets.py`` (4.3, appendix H), ``impact_presets.py``
-(chapter 5: fur, plate, gripper) and ``detumble_presets.py`` (the mission, issue 15).
+(chapter 5: fur, plate, gripper), ``detumble_presets.py`` (the mission, issue 15) and
+``docking_presets.py`` (brush-assisted docking, issue 27).
 """
 from __future__ import annotations
 
@@ -45,11 +46,18 @@ def _detumble_presets() -> list[dict]:
                                                     seed.seed_brush(), seed.quat_axis_angle)
 
 
+def _docking_presets() -> list[dict]:
+    """Brush-assisted docking (issue 27; ``docking_presets.py``, beside this file)."""
+    seed = _family("seed_values")
+    return _family("docking_presets").presets(seed.SILICONE, seed.PHI_SIL_SIL,
+                                              seed.seed_brush, seed.Q_Z_TO_PLUS_X)
+
+
 def all_presets() -> dict[str, dict]:
     _family("seed_values")  # (first: the families import it)
     scenes = [*_family("rod_presets").presets(), *_family("wedge_presets").presets(),
               *_family("spin_presets").presets(), *_family("impact_presets").presets(),
-              *_detumble_presets()]
+              *_detumble_presets(), *_docking_presets()]
     return {s["name"]: s for s in scenes}
 
 
