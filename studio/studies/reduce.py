@@ -392,7 +392,7 @@ def add_parser(study_subparsers) -> None:
     from .study_command import set_command
 
     p = study_subparsers.add_parser(
-        "reduce", help="fit a reduced brush law to short DEM runs (issue 25)",
+        "reduce", help="fit a reduced brush law (a compliant patch) to short DEM runs",
         description="Fit the reduced brush law (a compliant patch: Hunt-Crossley-like normal "
                     "force, load- and speed-dependent friction, torsion from the patch size) "
                     "to short DEM presses and slides of a preset's brush against a flat "
