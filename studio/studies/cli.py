@@ -9,9 +9,11 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import detumble, refinement, rod_study, sensitivity, spin_study, wedge_study
+from . import (detumble, optimise, refinement, rod_study, sensitivity, spin_study,
+               wedge_study)
 
-STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble)
+STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
+                 optimise)
 
 
 def register(subparsers) -> None:

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
-from . import (convergence, detumble, refinement, rod_study, sensitivity, spin_study,
-               wedge_study)
+from . import (convergence, detumble, optimise, refinement, rod_study, sensitivity,
+               spin_study, wedge_study)
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,9 @@ class Study:
 
     def options_from_dict(self, data: dict):
         """The study's ``Options`` from :meth:`options_to_dict`'s dict."""
+        if hasattr(self.options, "model_validate"):  # a pydantic options model
+            return self.options.model_validate(
+                {k: v for k, v in data.items() if k in self.options.model_fields})
         names = {f.name for f in dataclasses.fields(self.options)}
         return self.options(**{k: v for k, v in data.items() if k in names})
 
@@ -59,6 +62,7 @@ REGISTRY: dict[str, Study] = {
                         sensitivity.run_montecarlo, _montecarlo_parser),
     "rod": Study("rod", rod_study.Options, rod_study.run, rod_study.add_parser),
     "detumble": Study("detumble", detumble.Options, detumble.run, detumble.add_parser),
+    "optimise": Study("optimise", optimise.Options, optimise.run, optimise.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),
 }
@@ -275,6 +279,9 @@ def make_options(study: str, options: Optional[dict], *, scheduler: Optional[str
     opts = entry.options.from_args(args)
     execution = {"scheduler": scheduler, "workers": None if scheduler else 1,
                  "no_progress": True, "quiet": True}
+    if hasattr(opts, "model_copy"):  # a pydantic options model
+        return opts.model_copy(update={k: v for k, v in execution.items()
+                                       if k in type(opts).model_fields}), argv
     opts = dataclasses.replace(opts, **{k: v for k, v in execution.items()
                                         if k in {f.name for f in dataclasses.fields(opts)}})
     return opts, argv
@@ -282,4 +289,6 @@ def make_options(study: str, options: Optional[dict], *, scheduler: Optional[str
 
 def options_to_dict(options) -> dict:
     """A study's ``Options`` as JSON-able data (:meth:`Study.options_from_dict` reads it)."""
+    if hasattr(options, "model_dump"):  # a pydantic options model
+        return _json(options.model_dump())
     return _json(dataclasses.asdict(options))
