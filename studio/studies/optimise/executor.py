@@ -56,6 +56,9 @@ class Executor:
             if old is not None:
                 items.append(old)
             elif self.local:
+                from .. import api
+
+                api.check_cancel()  # between the runs of a trial: Ctrl-C keeps those done
                 items.append(execute_spec(_spec_dict(spec), str(self.out_dir),
                                           reraise_interrupt=True))
             else:

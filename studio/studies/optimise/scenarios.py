@@ -137,7 +137,6 @@ def scenario_scene(base: dict, design: dict, scenario: Scenario, *, nodes: int,
     size = np.array(TUMBLE_ASPECT if scenario.tumbling else (1.0, 1.0, 1.0)) * a
     target["shape"] = {"type": "box", "size": [float(s) for s in size]}
     target["mass_properties"] = {"density": float(scenario.density)}
-    target["position"] = [0.0, 0.0, 0.0]
     if scenario.tumbling:
         axis = np.array(TUMBLE_AXIS) / np.linalg.norm(TUMBLE_AXIS)
         target["motion"] = {"type": "free"}

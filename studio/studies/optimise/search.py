@@ -2,8 +2,8 @@
 (one Dask task per run), its metrics aggregated into objectives and constraints.
 
 - Sampler: TPE for one objective, NSGA-II for several (``--sampler``), both with Optuna's
-  constraint handling (``constraints_func``: a trial's aggregated ``c_j = value - limit``,
-  feasible when every ``c_j <= 0``), seeded (``--search-seed``).
+  constraint handling (``Trial.set_constraint``: a trial's aggregated ``c_j = value -
+  limit``, feasible when every ``c_j <= 0``), seeded (``--search-seed``).
 - Storage: ``optuna.journal`` in the output folder (Optuna's JournalStorage on a file). A
   search stopped (Ctrl-C, a cancelled job) and started again in the same folder keeps every
   finished trial; a trial that was under way is asked again with the same design (its
@@ -49,6 +49,7 @@ class Problem:
     stress_limit: float
     target: str = "cube"
     full_run: bool = False
+    task: str = TASK  # the run's task (tests give a synthetic one with a known optimum)
 
     @classmethod
     def from_options(cls, options) -> "Problem":
@@ -110,7 +111,7 @@ class Problem:
                   "full_run": self.full_run}
         return [RunSpec(f"{key}{'_fine' if refined else ''}_{s.scenario_id}",
                         self.scene(design, s, refined=refined),
-                        dict(params, scenario=s.scenario_id, design=design), TASK)
+                        dict(params, scenario=s.scenario_id, design=design), self.task)
                 for s in self.scenarios]
 
     def evaluate(self, outcomes: list[dict]) -> dict:
@@ -143,18 +144,13 @@ def design_key(design: dict) -> str:
 def _sampler(kind: str, n_objectives: int, has_constraints: bool, seed: int):
     import optuna
 
-    def constraints(trial):
-        return trial.user_attrs.get("constraints", [])
-
-    cf = constraints if has_constraints else None
+    # the constraints reach the samplers through each trial's ``set_constraint`` (Optuna 5)
     if kind == "auto":
         kind = "tpe" if n_objectives == 1 else "nsga2"
     if kind == "tpe":
-        return optuna.samplers.TPESampler(seed=seed, constraints_func=cf,
-                                          n_startup_trials=5, multivariate=True)
+        return optuna.samplers.TPESampler(seed=seed, n_startup_trials=5, multivariate=True)
     if kind == "nsga2":
-        return optuna.samplers.NSGAIISampler(seed=seed, constraints_func=cf,
-                                             population_size=max(4, min(20, 2 * n_objectives
+        return optuna.samplers.NSGAIISampler(seed=seed, population_size=max(4, min(20, 2 * n_objectives
                                                                          + 6)))
     return optuna.samplers.RandomSampler(seed=seed)
 
@@ -171,6 +167,12 @@ def open_study(out_dir: Path, problem: Problem, sampler: str, seed: int):
         storage=storage, study_name=STUDY_NAME, load_if_exists=True,
         directions=["minimize"] * len(problem.objectives),
         sampler=_sampler(sampler, len(problem.objectives), bool(problem.constraints), seed))
+    n_old = len(study.get_trials(deepcopy=False))
+    if n_old:
+        # a resumed search: seeded afresh past its trials, or it would draw its first
+        # (random start-up) designs again
+        study.sampler = _sampler(sampler, len(problem.objectives), bool(problem.constraints),
+                                 seed + 7919 * n_old)
     digest = problem.setup_digest()
     old = study.user_attrs.get("setup")
     if old is None:
@@ -298,6 +300,9 @@ def _tell(study, trial, problem: Problem, outcomes: list[dict], log: SearchLog) 
         study.tell(trial, state=optuna.trial.TrialState.FAIL)
     else:
         trial.set_user_attr("constraints", ev["constraints"])
+        for (metric, how, limit), c in zip(problem.constraints, ev["constraints"]):
+            trial.set_constraint(f"{metric}:{how}<={limit:g}",
+                                 c if math.isfinite(c) else 1e300)
         values = [v if math.isfinite(v) else 1e300 for v in ev["values"]]
         study.tell(trial, values)
     log.trials_done += 1

@@ -1,0 +1,248 @@
+"""The design search (``study optimise``): its optimiser finds a known optimum, a stopped
+search resumes without repeating or losing trials, its inputs are checked, and (slow) the
+command runs end to end on a tiny spin-cube scene.
+
+The known-answer and resume tests run the real search loop (Optuna, storage, executor,
+aggregation, outputs) with a synthetic run task in place of the engine: its "spin left" is a
+closed form of the design, so the optimum is known exactly and the tests take seconds.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import threading
+
+import pytest
+
+from studio.studies.optimise import Options, StudyInputError
+from studio.studies.optimise.metrics import aggregate, parse_constraint, parse_objective
+from studio.studies.optimise.search import Problem, search
+from studio.studies.optimise.variables import (bending_stiffness, parse_variable,
+                                               set_bending_stiffness, apply_design)
+
+#: the synthetic optimum: spin_left = log10(S / S_STAR(a)) changes sign at S_STAR, which
+#: grows with the cube edge a (a bigger cube needs a stiffer brush, as in seed 4.3.4)
+S_STAR_40 = 2.0e-5
+CALLS: list = []
+STOP_AFTER = {"n": None, "event": None}
+
+
+def s_star(cube_mm: float) -> float:
+    return S_STAR_40 * (cube_mm / 40.0) ** 2
+
+
+def synthetic_task(scene, h5_path, params: dict) -> dict:
+    """A run task with a closed-form answer: spin_left = log10(S / S*(a)) / 2 with S the
+    design's E d^4 read back from the built scene (so the variable's path into the scene is
+    exercised), a the cube's edge."""
+    b = scene.brushes[0]
+    S = scene.materials[b.material].youngs_modulus * (2 * b.root_radius) ** 4
+    cube = next(x for x in scene.bodies if x.name == "cube")
+    a_mm = cube.shape.size[0] * 1e3
+    h5_path.write_bytes(b"synthetic")  # the runner wants the run's file to exist
+    CALLS.append((params["design"]["bending_stiffness"], a_mm))
+    if STOP_AFTER["n"] is not None and len(CALLS) >= STOP_AFTER["n"]:
+        STOP_AFTER["event"].set()  # the study's cancel: as Ctrl-C at this point
+    left = math.log10(S / s_star(a_mm)) / 2
+    return {"spin_left": left, "abs_spin_left": abs(left), "peak_force": S * 1e5,
+            "sim_cpu_s": 0.0, "task_cpu_s": 0.0}
+
+
+def _options(**kw) -> Options:
+    base = dict(preset="spin_cube_40", variables=["bending_stiffness=1e-6:1e-3:log"],
+                objectives=["abs_spin_left:worst"], cubes_mm=[40.0], workers=1,
+                no_progress=True, refine=False, trials=30)
+    base.update(kw)
+    return Options(**base)
+
+
+def _problem(options: Options) -> Problem:
+    problem = Problem.from_options(options)
+    problem.task = f"{__name__}:synthetic_task"
+    return problem
+
+
+def test_tpe_finds_the_known_optimum_of_a_one_dimensional_problem(tmp_path):
+    """The search's best E d^4 for one cube is the closed-form root S* = 2e-5 Pa m^4.
+    Catches: a variable not reaching the scene (E d^4 mapped to E wrongly, e.g. d^4 vs r^4),
+    objectives maximised instead of minimised, an aggregate taking the best not the worst."""
+    CALLS.clear()
+    options = _options(trials=30)
+    study, log = search(_problem(options), tmp_path, trials=30, cpu_budget_s=None,
+                        seed=0, workers=1)
+    best = study.best_trial
+    # 30 TPE trials over three decades: within 10 % of S* is |spin_left| < 0.021, what TPE
+    # reaches on a V-shaped 1-D objective in that budget (a wrong mapping misses by 16x)
+    assert best.params["bending_stiffness"] == pytest.approx(S_STAR_40, rel=0.10)
+    assert best.values[0] < 0.021
+    assert log.trials_done == 30 and len(CALLS) == 30
+
+
+def test_worst_case_over_two_cubes_picks_the_robust_stiffness(tmp_path):
+    """With cubes of 40 and 80 mm (S* = 2e-5 and 8e-5) the worst |spin_left| is smallest
+    at their geometric mean 4e-5 (closed form: |log10(S/S1)| = |log10(S/S2)|)."""
+    options = _options(cubes_mm=[40.0, 80.0], trials=30)
+    study, _ = search(_problem(options), tmp_path, trials=30, cpu_budget_s=None, seed=1,
+                      workers=1)
+    robust = math.sqrt(s_star(40) * s_star(80))
+    # 30 trials: within 15 % of the robust S (the objective's floor there is log10(2)/2)
+    assert study.best_trial.params["bending_stiffness"] == pytest.approx(robust, rel=0.15)
+    assert study.best_trial.values[0] == pytest.approx(math.log10(2) / 2, abs=0.04)
+
+
+def test_a_stopped_search_resumes_without_repeating_or_losing_trials(tmp_path):
+    """Cancel the search in the middle of its 4th trial (as Ctrl-C would), start it again in
+    the same folder: the 3 finished trials are kept as they were, the interrupted design is
+    asked again and every design is run exactly once (no scenario run repeated). Catches: a
+    storage not in the output folder, a resume that starts over, a requeue that forgets the
+    interrupted design or counts it."""
+    from studio.studies import api
+
+    CALLS.clear()
+    options = _options(cubes_mm=[40.0, 80.0], trials=6)
+    problem = _problem(options)
+    event = threading.Event()
+    STOP_AFTER.update(n=7, event=event)  # 3 trials x 2 scenarios + the 4th's first run
+    try:
+        with api.session(None, event):
+            with pytest.raises(KeyboardInterrupt):
+                search(problem, tmp_path, trials=6, cpu_budget_s=None, seed=0, workers=1)
+    finally:
+        STOP_AFTER.update(n=None, event=None)
+    first = list(CALLS)
+    assert len(first) == 7
+    study, log = search(problem, tmp_path, trials=6, cpu_budget_s=None, seed=0, workers=1)
+    import optuna
+
+    complete = [t for t in study.get_trials() if t.state == optuna.trial.TrialState.COMPLETE]
+    assert len(complete) == 6
+    assert [t.number for t in complete[:3]] == [0, 1, 2]  # the finished ones kept
+    assert log.requeued == 1 and log.trials_run == 3
+    # every design x scenario ran once: the 4th trial's finished run was reused
+    assert len(CALLS) == 12 and log.runs_reused == 1
+    assert len(set(CALLS)) == 12
+    interrupted = [t for t in study.get_trials() if t.user_attrs.get("interrupted")]
+    assert len(interrupted) == 1
+    assert complete[3].params == interrupted[0].params
+    # a finished search extended: 2 more trials, nothing run twice
+    study, log = search(problem, tmp_path, trials=8, cpu_budget_s=None, seed=0, workers=1)
+    assert log.trials_run == 2 and len(CALLS) == 16 and len(set(CALLS)) == 16
+
+
+def test_a_folder_of_another_search_is_refused(tmp_path):
+    """Resuming with other scenarios would mix incomparable trials: refused, named."""
+    search(_problem(_options(trials=1)), tmp_path, trials=1, cpu_budget_s=None, workers=1)
+    with pytest.raises(StudyInputError, match="other designs, scenarios or objectives"):
+        search(_problem(_options(trials=2, cubes_mm=[20.0])), tmp_path, trials=2,
+               cpu_budget_s=None, workers=1)
+
+
+def test_constraints_mark_infeasible_designs_and_the_winner_respects_them(tmp_path):
+    """peak_force = 1e5 S <= 3 allows S <= 3e-5: with two cubes (robust S 4e-5 beyond the
+    limit) the feasible optimum sits on the constraint. Catches a constraint sign error
+    (value - limit) or a winner taken from infeasible trials."""
+    from studio.studies.optimise.outputs import feasible, ranked
+
+    options = _options(cubes_mm=[40.0, 80.0], trials=30,
+                       constraints=["peak_force:worst<=3"])
+    study, _ = search(_problem(options), tmp_path, trials=30, cpu_budget_s=None, seed=2,
+                      workers=1)
+    winner = ranked(study)[0]
+    assert feasible(winner)
+    assert any(not feasible(t) for t in study.get_trials() if t.values)
+    # on the constraint within 15 % (30 TPE trials), never past it
+    assert 3e-5 * 0.85 <= winner.params["bending_stiffness"] <= 3e-5
+
+
+def test_variables_parse_and_reach_the_scene():
+    """Paths, the brush material alias, integer fields, E d^4 through E and through d."""
+    import json as _json
+    from studio import presets
+
+    scene = _json.loads(presets.load_preset("spin_cube_40").to_json())
+    v = parse_variable("brushes.0.rows=3:17", scene)
+    assert v.integer and (v.low, v.high) == (3, 17)
+    v = parse_variable("brushes.0.material.youngs_modulus=1e6:1e7:log", scene)
+    assert v.log and not v.integer
+    for bad in ("brushes.0.nope=1:2", "brushes.0.rows=1.5:3", "bending_stiffness=2:1",
+                "bending_stiffness=0:1:log", "brushes.0.root_radius"):
+        with pytest.raises(StudyInputError):
+            parse_variable(bad, scene)
+    s = _json.loads(_json.dumps(scene))
+    apply_design(s, {"brushes.0.material.youngs_modulus": 5e6, "brushes.0.rows": 9.0})
+    assert s["materials"]["silicone"]["youngs_modulus"] == 5e6 and s["brushes"][0]["rows"] == 9
+    for via in ("youngs_modulus", "diameter"):
+        s = _json.loads(_json.dumps(scene))
+        ratio = s["brushes"][0]["tip_radius"] / s["brushes"][0]["root_radius"]
+        set_bending_stiffness(s, 3.3e-5, via)
+        # E d^4 read back; d = 2 r (a radius-for-diameter slip is a factor 16)
+        assert bending_stiffness(s) == pytest.approx(3.3e-5, rel=1e-12)
+        assert s["brushes"][0]["tip_radius"] / s["brushes"][0]["root_radius"] == \
+            pytest.approx(ratio, rel=1e-12)
+
+
+def test_objectives_constraints_and_aggregates():
+    assert parse_objective("peak_force") == ("peak_force", "worst")
+    assert parse_objective("abs_spin_left:p90") == ("abs_spin_left", "p90")
+    assert parse_constraint("peak_stress_ratio:worst<=1") == ("peak_stress_ratio", "worst", 1)
+    for bad in ("nothing", "peak_force:best", "peak_force:p101"):
+        with pytest.raises(StudyInputError):
+            parse_objective(bad)
+    with pytest.raises(StudyInputError):
+        parse_constraint("peak_force:worst<3")
+    assert aggregate([1, 3, 2], "worst") == 3 and aggregate([1, 3, 2], "mean") == 2
+    assert aggregate([0, 10], "p90") == pytest.approx(9.0)
+
+
+def test_bad_options_are_refused_with_exit_code_2(tmp_path, capsys):
+    from studio.studies.registry import get
+
+    result = get("optimise").run(_options(variables=["brushes.0.colour=1:2"]), tmp_path)
+    assert result.exit_code == 2
+    assert "colour" in capsys.readouterr().err
+    with pytest.raises(Exception):  # a bound of the model (pydantic)
+        Options(trials=0)
+
+
+def test_the_command_line_comes_from_the_options_model():
+    from studio.studies.registry import make_options, study_parser
+
+    parser = study_parser("optimise")
+    args = parser.parse_args(["--cubes-mm", "20,40", "--objectives",
+                              "abs_spin_left:mean,peak_force:worst", "--no-refine", "-o", "x"])
+    options = Options.from_args(args)
+    assert options.cubes_mm == [20.0, 40.0] and options.refine is False
+    assert options.objectives == ["abs_spin_left:mean", "peak_force:worst"]
+    opts, argv = make_options("optimise", {"cubes_mm": [20, 60], "trials": 3})
+    assert opts.cubes_mm == [20.0, 60.0] and opts.trials == 3 and opts.workers == 1
+
+
+@pytest.mark.slow
+def test_study_optimise_end_to_end_on_a_tiny_scene(tmp_path):
+    """The command on the spin-cube rig with a 3 x 2 brush, 3 nodes, two trials and the
+    refinement re-run: every output is written, best.json is a valid scene."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import engine
+
+    root = Path(__file__).resolve().parents[2]
+    out = tmp_path / "search"
+    cmd = [sys.executable, "-m", "studio.cli", "study", "optimise", "--preset", "spin_cube_20",
+           "--variables", "bending_stiffness=1e-5:1e-4:log", "brushes.0.rows=2:4",
+           "--cubes-mm", "20", "--trials", "2", "--duration-s", "0.25", "--workers", "1",
+           "--no-progress", "-o", str(out)]
+    proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=1500)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for name in ("trials.csv", "pareto.csv", "best.json", "report.md", "summary.json",
+                 "optuna.journal"):
+        assert (out / name).is_file(), name
+    rows = list(csv.DictReader(open(out / "trials.csv")))
+    assert len(rows) == 2
+    engine.load_scene(out / "best.json")
+    report = (out / "report.md").read_text()
+    assert "Refinement check" in report and "Worst scenario" in report
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["refinement"] is not None
