@@ -214,8 +214,17 @@ def test_the_command_line_comes_from_the_options_model():
     options = Options.from_args(args)
     assert options.cubes_mm == [20.0, 40.0] and options.refine is False
     assert options.objectives == ["abs_spin_left:mean", "peak_force:worst"]
-    opts, argv = make_options("optimise", {"cubes_mm": [20, 60], "trials": 3})
+    opts, argv = make_options("optimise", {"cubes_mm": [20, 60], "trials": 3,
+                                           "preset": "spin_cube_20"})
     assert opts.cubes_mm == [20.0, 60.0] and opts.trials == 3 and opts.workers == 1
+    assert opts.preset.endswith("spin_cube_20.json")  # a preset name -> its file
+    # the job layer stores the options as JSON and reads them back (studio/jobs)
+    from studio.studies.registry import get, options_to_dict
+
+    data = json.loads(json.dumps(options_to_dict(opts)))
+    assert get("optimise").options_from_dict(data) == opts
+    with pytest.raises(Exception, match="workers"):  # the server's own options refused
+        make_options("optimise", {"workers": 4})
 
 
 @pytest.mark.slow

@@ -35,7 +35,13 @@ def _body(options, out: Path) -> int:
     from .search import Problem, search
 
     if not isinstance(options, Options):  # a dict from Python or a job
-        options = Options.model_validate(options)
+        from pydantic import ValidationError
+
+        try:
+            options = Options.model_validate(options)
+        except ValidationError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
     session = api.current()
     try:
         problem = Problem.from_options(options)
