@@ -18,6 +18,13 @@ def _split(text: str) -> list[str]:
     return [t for t in text.replace(",", " ").split() if t]
 
 
+class _Flatten(argparse.Action):
+    """A list option given as one or several words, each holding items."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, [item for chunk in values for item in chunk])
+
+
 def _base_type(annotation):
     """(type, is_list, choices) of a field's annotation (Optional unwrapped)."""
     origin = get_origin(annotation)
@@ -57,9 +64,10 @@ def add_model_arguments(parser: argparse.ArgumentParser, model: type[BaseModel],
                         f"{flag}: expected {typ.__name__} values separated by commas or "
                         f"spaces, got {value!r}") from None
             shown = ",".join(str(v) for v in default) if default else "none"
-            # a variable or objective holds no comma or space: one per comma-separated item
-            parser.add_argument(flag, dest=name, type=convert, default=default,
-                                metavar=name.upper(), help=f"{text} (default {shown})")
+            # a variable or objective holds no comma or space: "a,b", "a b" and a b all work
+            parser.add_argument(flag, dest=name, type=convert, default=default, nargs="+",
+                                action=_Flatten, metavar=name.upper(),
+                                help=f"{text} (default {shown})")
             continue
         parser.add_argument(flag, dest=name, type=typ if typ in (int, float, str) else str,
                             default=default, choices=choices,
