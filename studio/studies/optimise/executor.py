@@ -103,13 +103,18 @@ class Executor:
             api.check_cancel()
         return done
 
+    def cancel_pending(self) -> None:
+        """Cancel the runs still queued (a stopped search); the cluster stays."""
+        futures = [x for items in self._pending.values() for x in items
+                   if not isinstance(x, dict)]
+        self._pending.clear()
+        if futures and self.client is not None:
+            self.client.cancel(futures)
+
     def close(self) -> None:
         if self.client is not None:
             try:
-                futures = [x for items in self._pending.values() for x in items
-                           if not isinstance(x, dict)]
-                if futures:
-                    self.client.cancel(futures)
+                self.cancel_pending()
             finally:
                 self.client.close()
                 if self.cluster is not None:

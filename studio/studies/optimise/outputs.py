@@ -143,7 +143,10 @@ def plots(out: Path, study, problem: Problem, winner) -> list[Path]:
                            facecolors="none", edgecolors="k",
                            label=f"winner (trial {winner.number}; worst scenario {worst})")
             if v.log:
+                from matplotlib.ticker import NullFormatter
+
                 ax.set_xscale("log")
+                ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels overlap
             ax.set_xlabel(v.path)
             ax.set_ylabel(f"{metric} ({agg} over {len(problem.scenarios)} scenarios)")
             ax.legend(fontsize=8)
@@ -224,7 +227,6 @@ def write_report(path: Path, problem: Problem, study, winner, log, refinement, g
     lines += ["## Winner", "", f"Trial {winner.number} (feasible: {feasible(winner)}):", ""]
     for v in problem.variables:
         lines.append(f"- `{v.path}` = {winner.params[v.path]:.6g}")
-    lines += [""]
     for (m, a), val in zip(problem.objectives, winner.values):
         lines.append(f"- objective `{m}` ({a}) = {val:.4g}")
     for (m, a, lim), c in zip(problem.constraints, winner.user_attrs.get("constraints", [])):

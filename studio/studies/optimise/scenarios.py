@@ -22,7 +22,8 @@ import numpy as np
 from .errors import StudyInputError
 from .variables import apply_design
 
-#: direction of a tumbling target's spin in its body frame: off every principal axis
+#: direction of a tumbling target's spin in its body frame: off every principal axis, near
+#: the intermediate one (y of the 1 : 1.25 : 1.5 box), about which a spin is unstable
 TUMBLE_AXIS = (0.25, 1.0, 0.15)
 TUMBLE_ASPECT = (1.0, 1.25, 1.5)
 MATERIAL_SPREAD = 0.2  # +-20 % on E and on the friction angles (uniform)

@@ -227,9 +227,11 @@ class SearchLog:
 
 def search(problem: Problem, out_dir: Path, *, trials: int, cpu_budget_s: Optional[float],
            sampler: str = "auto", seed: int = 0, scheduler=None, workers=None,
-           on_trial=None) -> tuple:
+           on_trial=None, executor=None) -> tuple:
     """Run the search until ``trials`` are finished (or the CPU budget is spent). Returns
-    ``(study, SearchLog)``. ``on_trial(log)`` after each told trial."""
+    ``(study, SearchLog)``. ``on_trial(log)`` after each told trial. ``executor``: an
+    :class:`~.executor.Executor` the caller keeps (and closes) for later runs, such as the
+    refinement; default: one started and closed here."""
     import optuna
 
     from .. import api
@@ -246,7 +248,9 @@ def search(problem: Problem, out_dir: Path, *, trials: int, cpu_budget_s: Option
     def spent() -> float:
         return log.run_cpu_s + (time.process_time() - c0) * (0 if executor.local else 1)
 
-    executor = Executor(out_dir, scheduler, workers)
+    own = executor is None
+    if own:
+        executor = Executor(out_dir, scheduler, workers)
     in_flight: dict = {}
     try:
         while True:
@@ -273,7 +277,10 @@ def search(problem: Problem, out_dir: Path, *, trials: int, cpu_budget_s: Option
                 if on_trial is not None:
                     on_trial(log)
     finally:
-        executor.close()
+        if own:
+            executor.close()
+        else:
+            executor.cancel_pending()
         log.wall_s = time.perf_counter() - t0
     return study, log
 

@@ -64,39 +64,37 @@ def _body(options, out: Path) -> int:
             print(msg, file=sys.stderr)
 
     study_ref: list = []
+    from .executor import Executor
     from .search import open_study
     try:
         study_ref.append(open_study(out, problem, options.sampler, options.search_seed))
-        study, log = search(problem, out, trials=options.trials,
-                            cpu_budget_s=options.cpu_budget_s, sampler=options.sampler,
-                            seed=options.search_seed, scheduler=options.scheduler,
-                            workers=options.workers, on_trial=on_trial)
     except StudyInputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    n_rows = write_trials_csv(out / "trials.csv", study, problem)
-    write_pareto_csv(out / "pareto.csv", study, problem)
-    order = ranked(study)
-    winner = order[0] if order and feasible(order[0]) else None
-    refinement, gap = None, None
-    if winner is not None:
-        write_best(out / "best.json", winner, problem)
-        gap = margin(study, winner)
-        if options.refine:
-            from .executor import Executor
-
-            session.report(1.0, "refinement re-run of the winner", force=True)
-            ex = Executor(out, options.scheduler, options.workers)
-            try:
-                ex.submit(problem.specs(dict(winner.params), refined=True))
+    # one cluster (or this process) for the whole search and the refinement re-run
+    executor = Executor(out, options.scheduler, options.workers)
+    try:
+        study, log = search(problem, out, trials=options.trials,
+                            cpu_budget_s=options.cpu_budget_s, sampler=options.sampler,
+                            seed=options.search_seed, on_trial=on_trial, executor=executor)
+        n_rows = write_trials_csv(out / "trials.csv", study, problem)
+        write_pareto_csv(out / "pareto.csv", study, problem)
+        order = ranked(study)
+        winner = order[0] if order and feasible(order[0]) else None
+        refinement, gap = None, None
+        if winner is not None:
+            write_best(out / "best.json", winner, problem)
+            gap = margin(study, winner)
+            if options.refine:
+                session.report(1.0, "refinement re-run of the winner", force=True)
+                executor.submit(problem.specs(dict(winner.params), refined=True))
                 done = []
                 while not done:
-                    done = ex.wait_any()
-                fine = done[0][1]
-            finally:
-                ex.close()
-            refinement = refinement_check(problem, winner, fine, gap)
-            refinement.pop("rows", None)
+                    done = executor.wait_any()
+                refinement = refinement_check(problem, winner, done[0][1], gap)
+                refinement.pop("rows", None)
+    finally:
+        executor.close()
     plots(out, study, problem, winner)
     write_report(out / "report.md", problem, study, winner, log, refinement, gap, command)
     summary = {"trials": len([t for t in study.get_trials(deepcopy=False)]),
