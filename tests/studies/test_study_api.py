@@ -17,7 +17,9 @@ from studio.studies.registry import STUDIES, StudyOptionError, make_options, stu
 def test_options_fields_are_the_command_line_options(study):
     parser = study_parser(study)
     dests = {a.dest for a in parser._actions if a.dest not in ("help", "output")}
-    fields = {f.name for f in dataclasses.fields(registry.get(study).options)}
+    kind = registry.get(study).options
+    fields = (set(kind.model_fields) if hasattr(kind, "model_fields")  # a pydantic model
+              else {f.name for f in dataclasses.fields(kind)})
     # a flag the command has but the Options lack would be dropped on the way to run()
     assert dests <= fields, dests - fields
     # an Options field that no flag sets is a constant of the study (refinement's angles)
