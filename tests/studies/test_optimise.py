@@ -45,8 +45,9 @@ def synthetic_task(scene, h5_path, params: dict) -> dict:
     if STOP_AFTER["n"] is not None and len(CALLS) >= STOP_AFTER["n"]:
         STOP_AFTER["event"].set()  # the study's cancel: as Ctrl-C at this point
     left = math.log10(S / s_star(a_mm)) / 2
+    # each run "costs" 1 CPU-s, so that the CPU budget can be tested
     return {"spin_left": left, "abs_spin_left": abs(left), "peak_force": S * 1e5,
-            "sim_cpu_s": 0.0, "task_cpu_s": 0.0}
+            "sim_cpu_s": 1.0, "task_cpu_s": 1.0}
 
 
 def _options(**kw) -> Options:
@@ -128,6 +129,14 @@ def test_a_stopped_search_resumes_without_repeating_or_losing_trials(tmp_path):
     # a finished search extended: 2 more trials, nothing run twice
     study, log = search(problem, tmp_path, trials=8, cpu_budget_s=None, seed=0, workers=1)
     assert log.trials_run == 2 and len(CALLS) == 16 and len(set(CALLS)) == 16
+
+
+def test_the_cpu_budget_stops_asking_for_designs(tmp_path):
+    """Runs of 1 CPU-s each, two scenarios per design, a budget of 5 CPU-s: three designs
+    (6 CPU-s: the third starts at 4 < 5) and no more, though 20 trials were allowed."""
+    options = _options(cubes_mm=[40.0, 80.0], trials=20)
+    _, log = search(_problem(options), tmp_path, trials=20, cpu_budget_s=5.0, workers=1)
+    assert log.trials_run == 3 and log.stopped_by.startswith("CPU budget")
 
 
 def test_a_folder_of_another_search_is_refused(tmp_path):
