@@ -296,3 +296,41 @@ def test_scenario_set_tumbling_and_material_draws_are_valid_and_reproducible():
             # a principal-axis spin gives 0 to rounding; the chosen axis is 3 deg off L
             assert np.linalg.norm(np.cross(L, w)) > 0.02 * np.linalg.norm(L) * np.linalg.norm(w)
             assert box.motion.type == "free"
+
+
+def test_two_objectives_give_a_pareto_front_and_the_outputs(tmp_path):
+    """NSGA-II on |spin_left| (least at S*) against peak force (growing with S): pareto.csv
+    holds mutually non-dominated designs and dominates every other trial; trials.csv has one
+    row per design x scenario; best.json is a valid scene; the plots and report.md are
+    written. Catches a front taken from infeasible or dominated trials, or rows lost."""
+    import engine
+    import optuna
+    from studio.studies.optimise.outputs import (plots, write_best, write_pareto_csv,
+                                                 write_report, write_trials_csv)
+
+    options = _options(cubes_mm=[40.0, 80.0], trials=12,
+                       objectives=["abs_spin_left:worst", "peak_force:mean"])
+    problem = _problem(options)
+    study, log = search(problem, tmp_path, trials=12, cpu_budget_s=None, workers=1)
+    assert study.sampler.__class__.__name__ == "NSGAIISampler"
+    front = write_pareto_csv(tmp_path / "pareto.csv", study, problem)
+    done = [t for t in study.get_trials() if t.state == optuna.trial.TrialState.COMPLETE]
+
+    def dominates(a, b):
+        return all(x <= y for x, y in zip(a.values, b.values)) and a.values != b.values
+
+    assert front
+    assert not any(dominates(a, b) for a in front for b in front)
+    for t in done:
+        assert t in front or any(dominates(f, t) or f.values == t.values for f in front)
+    rows = list(csv.DictReader(open(tmp_path / "pareto.csv")))
+    assert len(rows) == len(front)
+    assert write_trials_csv(tmp_path / "trials.csv", study, problem) == 2 * len(done)
+    winner = min(front, key=lambda t: t.values[0])
+    write_best(tmp_path / "best.json", winner, problem)
+    engine.load_scene(tmp_path / "best.json")
+    files = plots(tmp_path, study, problem, winner)
+    assert (tmp_path / "pareto.png") in files and all(f.is_file() for f in files)
+    write_report(tmp_path / "report.md", problem, study, winner, log, None, None, "cmd")
+    text = (tmp_path / "report.md").read_text()
+    assert "Worst scenario: **cube80mm" in text  # the 80 mm cube is farther from its S*

@@ -210,6 +210,11 @@ def refinement_check(problem: Problem, winner, fine_outcomes: list[dict], gap) -
             "fine_constraints": fine["constraints"], "rows": fine["rows"]}
 
 
+def _fmt(value, spec: str) -> str:
+    """A metric for the report; n/a where the run did not give it."""
+    return "n/a" if value is None else format(float(value), spec)
+
+
 def write_report(path: Path, problem: Problem, study, winner, log, refinement, gap,
                  command: str) -> None:
     lines = ["# Design search report", "", f"Command: `{command}`", ""]
@@ -242,9 +247,9 @@ def write_report(path: Path, problem: Problem, study, winner, log, refinement, g
     design = dict(winner.params)
     for row, s in zip(winner.user_attrs.get("scenarios", []), problem.scenarios):
         g = groups(problem.scene(design, s))
-        lines.append(f"| {row['scenario']} | {row.get('spin_left', float('nan')):.4g} | "
-                     f"{row.get('peak_force', float('nan')):.4g} | "
-                     f"{row.get('peak_stress_ratio', float('nan')):.3g} | "
+        lines.append(f"| {row['scenario']} | {_fmt(row.get('spin_left'), '.4g')} | "
+                     f"{_fmt(row.get('peak_force'), '.4g')} | "
+                     f"{_fmt(row.get('peak_stress_ratio'), '.3g')} | "
                      f"{g['stiffness_group']:.4g} | {g['length_ratio']:.3g} |")
     lines += ["", "## Refinement check", ""]
     if refinement is None:
