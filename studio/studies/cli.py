@@ -10,11 +10,11 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import (detumble, docking, fur, reduce, refinement, rod_study, sensitivity, spin_study,
-               wedge_study)
+from . import (detumble, docking, fur, optimise, reduce, refinement, rod_study, sensitivity,
+               spin_study, wedge_study)
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
-                 reduce, fur, docking)
+                 reduce, fur, docking, optimise)
 
 
 def register(subparsers) -> None:

@@ -213,7 +213,10 @@ def add_model_arguments(parser: argparse.ArgumentParser, model: type[StudyOption
             flags.insert(0, extra["short"])
         if kind == "bool":
             kw.pop("metavar", None)
-            target.add_argument(*flags, action="store_true", **kw)
+            # a flag that is on by default is turned off by --no-<name>
+            on = info.get_default(call_default_factory=True) is True
+            target.add_argument(*flags, action=(argparse.BooleanOptionalAction if on
+                                                else "store_true"), **kw)
         elif kind == "list":
             kw["action"] = _ListAction
             kw.setdefault("metavar", "V,...")

@@ -145,3 +145,28 @@ def test_example_05_mission_detumble(tmp_path):
     table = [float(v) for v in re.findall(r"^\s*\d+\.\d\d\s+(\d+\.\d+)$", out, re.MULTILINE)]
     assert len(table) == 9   # 0, 0.5, ..., 4 s
     assert (tmp_path / "omega.csv").read_text().startswith("time_s,omega_deg_per_s")
+
+
+@pytest.mark.slow
+def test_example_06_optimum_stiffness(tmp_path):
+    """The seed's question: per cube, spin_left changes sign across the scan and brentq's root
+    lies inside the bracket the scan found; the robust choice lies between the smallest and
+    the largest per-cube optimum (where the worst |spin_left| of curves that cross zero at
+    different stiffnesses is smallest); the refinement check is reported."""
+    out = run_example("06_optimum_stiffness.py", tmp_path)
+    roots = {}
+    for m in re.finditer(r"^cube (\S+) mm: optimum E d\^4 = (\S+) Pa m\^4 .* bracketed in "
+                         r"\[(\S+), (\S+)\]$", out, re.MULTILINE):
+        cube, root, lo, hi = m.group(1), *map(float, m.group(2, 3, 4))
+        assert lo <= root <= hi, m.group(0)
+        roots[cube] = root
+    assert len(roots) >= 2, out  # the sign change is found for at least two cube sizes
+    robust = number(r"^robust choice over .*: E d\^4 = (\S+) Pa m\^4", out)
+    # the search's range is the roots' span widened by 1.5 each way; the minimax lies
+    # between the roots, 8 TPE trials land within that widening
+    assert min(roots.values()) / 1.5 <= robust <= max(roots.values()) * 1.5
+    assert re.search(r"^refinement \(5 nodes, half the time step\): worst \|spin_left\| \S+, "
+                     r"(resolved|UNRESOLVED)", out, re.MULTILINE), out
+    assert number(r"^runs: (\d+)$", out) >= 3 * len(roots)
+    assert (tmp_path / "search" / "report.md").is_file()
+    assert (tmp_path / "search" / "best.json").is_file()

@@ -124,7 +124,7 @@ def test_the_http_api_takes_the_same_names(name):
     extra = {"quantity": "wedge_force@1mm", "ladder": "qs_increments=1,2"} \
         if study == "convergence" else {}
     opts = make_options(study, {"nodes": 5, "preset": preset, **extra})
-    nodes = "n_nodes" if name in OWN_PRESETS or study == "detumble" else "nodes"
+    nodes = "n_nodes" if name in OWN_PRESETS or study in ("detumble", "reduce") else "nodes"
     assert getattr(opts, nodes) == 5
     presets = opts.preset if isinstance(opts.preset, list) else [opts.preset]
     assert presets[0].endswith(f"{preset}.json")

@@ -33,6 +33,12 @@ BRUSH_DURATION, RIGID_DURATION, PRESET_SPEED = 2.0, 0.006, 0.03
 class Options(StudyOptions):
     """``brush-studio study docking``: every combination of the lists runs."""
 
+    preset: str = Field("docking",
+                        description="the brush docking: free bodies 'chaser' (carrying one "
+                                    "brush) and 'target' closing along x (default docking); "
+                                    "the hull-on-hull reference is the docking_rigid preset",
+                        json_schema_extra={"metavar": "NAME_OR_FILE", "scene": True,
+                                           "design": True})
     speeds: list[float] = Field([30.0], min_length=1, description="closing speeds",
                                 json_schema_extra={"unit": "mm/s"})
     offsets: list[float] = Field([0.0], min_length=1,
@@ -52,10 +58,10 @@ class Options(StudyOptions):
         json_schema_extra={"unit": "s"})
 
 
-def _preset(name: str) -> dict:
-    from studio.presets import preset_path
+def _preset(ref: str) -> dict:
+    from ..fur.scenes import scene_dict
 
-    return json.loads(preset_path(name).read_text(encoding="utf-8"))
+    return scene_dict(ref)
 
 
 def _quat_z(angle: float) -> list[float]:
@@ -63,11 +69,11 @@ def _quat_z(angle: float) -> list[float]:
 
 
 def docking_scene(speed: float, offset: float, misalignment: float, *, brush: bool,
-                  nodes=None, duration=None) -> dict:
+                  nodes=None, duration=None, preset: str = "docking") -> dict:
     """The preset ``docking`` (``brush``) or ``docking_rigid`` with the chaser closing at
     ``speed`` (m/s) and the target shifted by ``offset`` (m, y) and turned by
     ``misalignment`` (rad, about z); SI."""
-    scene = copy.deepcopy(_preset("docking" if brush else "docking_rigid"))
+    scene = copy.deepcopy(_preset(preset if brush else "docking_rigid"))
     chaser = next(b for b in scene["bodies"] if b["name"] == "chaser")
     target = next(b for b in scene["bodies"] if b["name"] == "target")
     a_c = chaser["shape"]["size"][0] / 2
@@ -109,7 +115,8 @@ def build_specs(options: Options):
             specs.append(RunSpec(
                 run_id=("brush_" if brush else "rigid_") + tag,
                 scene=docking_scene(v * 1e-3, off * 1e-3, math.radians(mis), brush=brush,
-                                    nodes=options.nodes, duration=options.duration),
+                                    nodes=options.nodes, duration=options.duration,
+                                    preset=options.preset),
                 params=dict(params, kind="brush" if brush else "rigid"), task=TASK))
     return specs
 

@@ -43,10 +43,19 @@ class Fur:
     n_nodes: int
 
 
-def _preset(name: str) -> dict:
-    from studio.presets import preset_path
+def scene_dict(ref: str) -> dict:
+    """The JSON dict of a preset name or a scene file."""
+    from pathlib import Path
 
-    return json.loads(preset_path(name).read_text(encoding="utf-8"))
+    from studio.presets import preset_names, preset_path
+
+    path = preset_path(ref) if ref in preset_names() else Path(ref)
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+#: the bare plate's hit lasts microseconds: this time-step safety factor and record interval
+#: resolve its peak (as the solid_plate preset)
+PLATE_DT_SAFETY = 0.1
 
 
 def sphere_mass(radius: float, density: float) -> tuple[float, float]:
@@ -68,9 +77,11 @@ def _set_projectile(scene: dict, impact: Impact, top: float, aim_x: float) -> No
     body["velocity"] = [impact.speed * s, 0.0, -impact.speed * c]
 
 
-def fur_scene(impact: Impact, fur: Fur, *, duration: float, record_interval: float) -> dict:
-    """The fur-covered plate (from the ``space_fur`` preset) hit by ``impact``."""
-    scene = copy.deepcopy(_preset("space_fur"))
+def fur_scene(impact: Impact, fur: Fur, *, duration: float, record_interval: float,
+              preset: str = "space_fur") -> dict:
+    """The fur-covered plate (the scene ``preset``: a body ``plate``, a free body ``sphere``
+    and one fur brush) hit by ``impact``."""
+    scene = copy.deepcopy(scene_dict(preset))
     brush = scene["brushes"][0]
     taper = brush["tip_radius"] / brush["root_radius"]
     brush.update(bristle_length=fur.length, root_radius=fur.root_radius,
@@ -86,9 +97,15 @@ def fur_scene(impact: Impact, fur: Fur, *, duration: float, record_interval: flo
     return scene
 
 
-def plate_scene(impact: Impact, *, duration: float, record_interval: float) -> dict:
-    """The bare plate (from the ``solid_plate`` preset) hit by ``impact``."""
-    scene = copy.deepcopy(_preset("solid_plate"))
+def plate_scene(impact: Impact, *, duration: float, record_interval: float,
+                preset: str = "space_fur") -> dict:
+    """The bare plate hit by ``impact``: the fur scene ``preset`` without its fur (as the
+    ``solid_plate`` preset is ``space_fur`` without it), its hit resolved in time."""
+    scene = copy.deepcopy(scene_dict(preset))
+    scene.pop("brushes", None)
+    scene["run"] = {k: v for k, v in scene["run"].items() if k != "stop"}
+    scene["run"]["channels"] = ["bodies", "energy", "contacts"]
+    scene["run"]["dt_safety"] = PLATE_DT_SAFETY
     _set_projectile(scene, impact, 0.0, 0.0)
     scene["name"] = "bare_plate_impact"
     scene["description"] = f"study fur: {describe(impact)} on the bare plate (solid_plate)"

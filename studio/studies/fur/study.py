@@ -34,6 +34,12 @@ FUR_RECORD, PLATE_RECORD = 2e-6, 1e-7
 class Options(StudyOptions):
     """``brush-studio study fur``: the sweep's values (each a list: every combination runs)."""
 
+    preset: str = Field("space_fur",
+                        description="the fur scene: a body 'plate', a free body 'sphere' and "
+                                    "one fur brush on the plate (default space_fur); the "
+                                    "bare-plate reference is the same scene without its fur",
+                        json_schema_extra={"metavar": "NAME_OR_FILE", "scene": True,
+                                           "design": True})
     speeds: list[float] = Field([round(FIG51_SPEED, 4)], min_length=1,
                                 description="impact speeds",
                                 json_schema_extra={"unit": "m/s"})
@@ -111,7 +117,8 @@ def build_specs(options: Options):
             dur = options.duration or FUR_DURATION * stretch
             specs.append(RunSpec(
                 run_id=f"fur_{_impact_id(imp)}_{_fur_id(fur)}".replace(".", "p"),
-                scene=fur_scene(imp, fur, duration=dur, record_interval=FUR_RECORD),
+                scene=fur_scene(imp, fur, duration=dur, record_interval=FUR_RECORD,
+                                preset=options.preset),
                 params=dict(params, kind="fur", length_mm=fur.length * 1e3,
                             root_radius_mm=fur.root_radius * 1e3, pitch_mm=fur.pitch * 1e3,
                             nodes=fur.n_nodes, top=fur_top(fur),
@@ -124,7 +131,8 @@ def build_specs(options: Options):
             dur = PLATE_DURATION * max(1.0, 50.0 / v_n)
             specs.append(RunSpec(
                 run_id=f"bare_{_impact_id(imp)}".replace(".", "p"),
-                scene=plate_scene(imp, duration=dur, record_interval=PLATE_RECORD),
+                scene=plate_scene(imp, duration=dur, record_interval=PLATE_RECORD,
+                                  preset=options.preset),
                 params=dict(params, kind="bare", top=0.0, floor=-1.0), task=TASK))
     return specs
 
