@@ -53,6 +53,8 @@ from .run_files import (DONE_STATUSES, STATUSES, RunOutcome, load_outcome, outco
                         run_paths, write_json_atomic)
 
 DEFAULT_TASK = "studio.studies.runner:plain_run"
+#: the progress bar before any run has finished: elapsed time, no estimate of the time left
+NO_ETA_FORMAT = "{l_bar}{bar}| {n:.3g}/{total_fmt} [{elapsed}{postfix}]"
 
 
 # ----------------------------------------------------------------------------- data
@@ -322,8 +324,13 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
                          "digest": digest}))
 
     n_before = len(specs) - len(todo)
+    # No time left is shown until a whole run has finished: a run's own progress is in
+    # simulated time, and its cost per simulated second is not uniform (a wedge costs more
+    # the deeper it is), so an estimate from the first part of a run fell short by 4x. After
+    # that, the average over the whole study so far (smoothing 0), not the last seconds'.
     bar = tqdm(total=len(specs), initial=n_before, desc=desc, unit="run",
-               disable=not progress, dynamic_ncols=True, file=sys.stderr)
+               disable=not progress, dynamic_ncols=True, file=sys.stderr, smoothing=0,
+               bar_format=NO_ETA_FORMAT)
     bar.study_desc = desc  # a disabled bar keeps no desc: the progress callback's words
     _refresh(bar, force=True)
     tally = {"failed": 0, "finished": 0}
@@ -344,6 +351,7 @@ def run_many(specs: Sequence[RunSpec], out_dir, *, scheduler: Optional[str] = No
             bar.write(f"run {outcome.run_id} {outcome.status}: "
                       f"{outcome.error}  params {json.dumps(outcome.params)}")
         tally["finished"] += 1
+        bar.bar_format = None     # whole runs done: tqdm's own format, with the time left
         bar.set_postfix_str(f"{tally['failed']} failed", refresh=False)
         bar.n = n_before + tally["finished"]
         _refresh(bar, force=True)

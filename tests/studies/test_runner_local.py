@@ -101,3 +101,25 @@ def test_a_single_run_starts_no_cluster_whatever_the_workers(tiny_scene, tmp_pat
     (out,) = run_many([spec], tmp_path / "one", n_workers=2, progress=False)
     assert out.status == "completed"
     assert _root_force(out.h5).shape[1] == 3
+
+
+def test_no_time_left_is_shown_until_a_whole_run_has_finished(tiny_scene, tmp_path,
+                                                              monkeypatch, capsys):
+    # issue 28: the wedge study's bar said 55 s left with 3 min 53 s to go, an estimate from
+    # the cheap start of a run whose cost grows with depth. Bug caught: an estimate of the
+    # time left ("<MM:SS") drawn while the first run is still under way.
+    _refuse_dask(monkeypatch)
+    plain_run = runner.plain_run
+
+    def slow_start(scene, h5_path, params):
+        runner.report_progress(0.5)     # half of the first run's simulated time
+        return plain_run(scene, h5_path, params)
+
+    monkeypatch.setattr(runner, "plain_run", slow_start)
+    run_many(_sweep(tiny_scene)[:2], tmp_path / "study", n_workers=1, progress=True)
+    bars = [ln for ln in capsys.readouterr().err.replace("\r", "\n").splitlines() if "|" in ln]
+    first_done = next(i for i, ln in enumerate(bars) if "| 1/2" in ln)
+    before, after = bars[:first_done], bars[first_done:]
+    assert any("0.5/2" in ln for ln in before), bars     # the run's own progress is drawn
+    assert all("<" not in ln for ln in before), before    # without a time left
+    assert "<" in after[0], after   # whole runs done: the time left is shown
