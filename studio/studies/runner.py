@@ -245,6 +245,20 @@ def plain_run(scene, h5_path: Path, params: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- client side
+def run_counting_momentum(scene, h5_path: Path):
+    """Build and run ``scene`` into ``h5_path`` for a study's task, under the study's cancel;
+    returns ``(system, result, p_start, p_end)``: the total linear momentum of the moving
+    parts before and after (a study checks what its recorded forces transmitted against it)."""
+    import engine
+    import numpy as np
+
+    system = engine.build(scene)
+    p_start = np.asarray(engine.linear_momentum(system), float)
+    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
+    api.check_cancel()
+    return system, result, p_start, np.asarray(engine.linear_momentum(system), float)
+
+
 def default_workers() -> int:
     """Cores this process may use (one worker process per core)."""
     try:

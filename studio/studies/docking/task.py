@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import api
 
 #: a docking ends in soft capture when, at the end, the craft still touch and their relative
 #: speed is below this fraction of the closing speed
@@ -64,11 +63,9 @@ def docking_task(scene, h5_path: Path, params: dict) -> dict:
     """Dask task (``studio.studies.runner``): one docking, with or without the brush."""
     import engine
 
-    system = engine.build(scene)
-    p_start = np.asarray(engine.linear_momentum(system), float)
-    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
-    api.check_cancel()
-    p_end = np.asarray(engine.linear_momentum(system), float)
+    from ..runner import run_counting_momentum
+
+    system, result, p_start, p_end = run_counting_momentum(scene, h5_path)
     chaser = next(b for b in scene.bodies if b.name == "chaser")
     face_x = float(chaser.shape.size[0]) / 2
     with engine.open_result(h5_path) as res:

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import api
 
 
 def _trapezoid(t: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -88,11 +87,9 @@ def fur_task(scene, h5_path: Path, params: dict) -> dict:
     """Dask task (``studio.studies.runner``): one impact, with fur or on the bare plate."""
     import engine
 
-    system = engine.build(scene)
-    p_start = np.asarray(engine.linear_momentum(system), float)
-    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
-    api.check_cancel()
-    p_end = np.asarray(engine.linear_momentum(system), float)
+    from ..runner import run_counting_momentum
+
+    system, result, p_start, p_end = run_counting_momentum(scene, h5_path)
     sphere = next(b for b in scene.bodies if b.name == "sphere")
     with engine.open_result(h5_path) as res:
         t = res.time
