@@ -163,7 +163,12 @@ def run(system: System, until: Optional[float] = None,
             return fr
 
         with clock.block():  # zero steps: compiles the step loop or loads it from the cache
-            _advance(system, 0)
+            try:  # (and, at t = 0, evaluates the initial forces: the start may already fail)
+                _advance(system, 0)
+            except InstabilityError:
+                if system.steps == 0:  # the initial state is the frame the file keeps
+                    record()
+                raise
         if system.steps == 0 or total_steps == 0:
             if system.flags.track_energy and system.bonds.i.shape[0]:
                 _refresh_forces(system)

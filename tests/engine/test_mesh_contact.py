@@ -251,9 +251,9 @@ def test_box_sliding_on_a_fixed_box_decelerates_at_mu_g():
         "run": {"duration": 0.2, "record_interval": 0.2, "channels": ["bodies"]}})
     system = engine.build(scene)
     assert "tangential_history" in system.stages
-    # the landing settles by 0.1 s (restitution 0.2); Coulomb's cap is on the elastic
-    # normal force (contact_law), so the damper's share during the landing is not charged:
-    # compare the deceleration once settled
+    # the landing settles by 0.1 s (restitution 0.2); Coulomb's cap is on the total normal
+    # force (spring + dashpot, contact_law), which averages m g once settled: compare the
+    # deceleration then
     engine.run(system, until=0.1)
     t1, v1 = system.time, system.bodies.v[1, 0]
     engine.run(system)
@@ -261,8 +261,9 @@ def test_box_sliding_on_a_fixed_box_decelerates_at_mu_g():
     assert v2 > 0.1, "still sliding"
     decel = (v1 - v2) / (t2 - t1)  # the run stops on whole steps
     FIGURES["sliding block: deceleration / g tan(phi)"] = decel / (9.81 * math.tan(phi))
-    # settled: the normal force is m g to 1e-8 (measured) and the friction is at its cap
-    assert decel == pytest.approx(9.81 * math.tan(phi), rel=1e-4)
+    # settled, the friction is at its cap; 1e-3: the corners' residual rocking makes the
+    # total normal force (the cap's) average m g only to 2.6e-4 over 0.1 s (measured)
+    assert decel == pytest.approx(9.81 * math.tan(phi), rel=1e-3)
 
 
 def _box_into_cylinder_side(spacing):

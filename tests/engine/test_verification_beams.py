@@ -219,7 +219,10 @@ def test_conical_bristle_twist_reaction_torque_is_exact_frustum_compliance(tmp_p
     # 1e-6: one step from rest moves only the tip node (nothing else is out of balance);
     # theta^2 terms of the rotation algebra are ~1e-7 of T
     assert root_torque[2] == pytest.approx(-torque, rel=1e-6)
-    assert np.max(np.abs(system.nodes.t[1:-1, 2])) < 1e-6 * torque
+    # the nodes between root and tip-1 stay in equilibrium; the tip, the one node out of
+    # balance, turns during that first step (its forces are applied from t = 0), so its
+    # neighbour feels the turn and is left out
+    assert np.max(np.abs(system.nodes.t[1:-2, 2])) < 1e-6 * torque
 
 
 # ------------------------------------------------------------------------------ 3. elastica
