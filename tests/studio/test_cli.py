@@ -25,7 +25,9 @@ SUMMARY_KEYS = {"dt", "dt_limited_by", "steps", "wall_s", "node_steps_per_s", "s
 def test_run_tiny_scene_writes_result_and_summary(tiny_scene, write_scene, tmp_path, capsys):
     scene = write_scene(tiny_scene())
     out, summary_path = tmp_path / "out" / "tiny.h5", tmp_path / "tiny-summary.json"
-    code = main(["run", str(scene), "-o", str(out), "--summary", str(summary_path)])
+    # --parents: the output's folder does not exist yet (refused without it, issue 28)
+    code = main(["run", str(scene), "-o", str(out), "--summary", str(summary_path),
+                 "--parents"])
     printed = capsys.readouterr().out
     assert code == 0
     with engine.open_result(out) as res:
