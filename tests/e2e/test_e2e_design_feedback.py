@@ -31,21 +31,24 @@ def _wait_dom(page, text: str, timeout: float = 30.0) -> None:
         time.sleep(0.2)
 
 
-def test_e2e_refused_values_go_back_to_the_design(studio, page, shot):
+def test_e2e_refused_values_stay_typed_and_the_design_keeps_its_own(studio, page, shot):
+    # issue 29 item 1: a refused value typed in the browser stays in its box (putting the
+    # design's value back mid-typing turned "0.8" into "1.8"); the message under it says
+    # what the design keeps
     open_preset(studio, "demo", page)
     # 2.5 rows: refused with a message (viser would have cast it to 2 in an int box)
     st = set_field(page, studio, "rows", "2.5", lambda s: "rows" in s["errors"])
     assert st["scene"]["brushes"][0]["rows"] == 17
     assert "rows = 2.5: must be a whole number (the design keeps 17)" in st["errors"]["rows"]
     wait_text(page, "must be a whole number")
-    _wait_box(page, "rows", "17")   # the box shows what the design has
+    _wait_box(page, "rows", "2.5")   # the box keeps what was typed
     shot(page, "rows-2.5-refused")
-    # a value the engine refuses: the box goes back too, the message says what was typed
+    # a value the engine refuses: the box keeps it too, the message says what was typed
     st = set_field(page, studio, "tip radius [mm]", "20", lambda s: "tip_radius" in s["errors"])
     assert st["errors"]["tip_radius"][0] == \
         "tip radius = 20 mm refused (the design keeps 0.5 mm)"
     assert st["scene"]["brushes"][0]["tip_radius"] == 0.0005
-    _wait_box(page, "tip radius [mm]", "0.5")
+    _wait_box(page, "tip radius [mm]", "20")
     # a good value clears the messages
     st = set_field(page, studio, "rows", "3", lambda s: not s["errors"])
     assert st["scene"]["brushes"][0]["rows"] == 3 and st["edited"]
