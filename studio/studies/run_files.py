@@ -93,3 +93,28 @@ def failures_text(outcomes: Sequence[RunOutcome]) -> str:
 def write_outcomes(path: Path, outcomes: Sequence[RunOutcome]) -> None:
     """All outcomes as one JSON list (written atomically)."""
     write_json_atomic(path, [o.to_dict() for o in outcomes])
+
+
+def outcome_rows(outcomes: Sequence[RunOutcome], columns: Sequence[str]) -> list[dict]:
+    """One table row per run: the ``columns`` found in its parameters, then in its summary
+    (the summary wins), with its run_id and status."""
+    rows = []
+    for o in outcomes:
+        s = o.summary or {}
+        row = {c: o.params.get(c, "") for c in columns}
+        row.update({c: s[c] for c in columns if c in s})
+        row.update(run_id=o.run_id, status=o.status)
+        rows.append(row)
+    return rows
+
+
+def write_table(path: Path, rows: Sequence[dict], columns: Sequence[str]) -> None:
+    """``rows`` as a CSV file of ``columns`` (a missing or None value: an empty cell)."""
+    import csv
+
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(columns), extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in columns})
+

@@ -14,7 +14,6 @@ file per run.
 from __future__ import annotations
 
 import copy
-import csv
 import itertools
 import json
 import math
@@ -23,6 +22,7 @@ from pathlib import Path
 from pydantic import Field
 
 from .. import api
+from ..run_files import outcome_rows, write_table
 from ..options import StudyOptions
 
 TASK = "studio.studies.docking.task:docking_task"
@@ -127,23 +127,6 @@ COLUMNS = ["run_id", "kind", "speed_mm_s", "offset_mm", "misalignment_deg", "sta
            "momentum_change"]
 
 
-def _rows(outcomes) -> list[dict]:
-    rows = []
-    for o in outcomes:
-        s = o.summary or {}
-        row = {c: o.params.get(c, "") for c in COLUMNS}
-        row.update({c: s[c] for c in COLUMNS if c in s})
-        row.update(run_id=o.run_id, status=o.status)
-        rows.append(row)
-    return rows
-
-
-def _write_csv(path: Path, rows, columns) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in columns})
 
 
 def compare(rows) -> list[dict]:
@@ -205,10 +188,10 @@ def _run_study(options: Options, out: Path):
     code, outcomes = run_study(lambda: build_specs(options), out, options, desc="dockings")
     if code is not None:
         return code
-    rows = _rows(outcomes)
-    _write_csv(out / "docking.csv", rows, COLUMNS)
+    rows = outcome_rows(outcomes, COLUMNS)
+    write_table(out / "docking.csv", rows, COLUMNS)
     comparison = compare(rows)
-    _write_csv(out / "comparison.csv", comparison,
+    write_table(out / "comparison.csv", comparison,
                COLUMNS + ["rigid_peak_force", "rigid_rebound_ratio", "peak_force_ratio"])
     _plot(out, rows)
     summary = {"runs": len(rows), "completed": sum(r["status"] == "completed" for r in rows),

@@ -11,7 +11,6 @@ The defaults are fig. 5.1's case, the study's first row.
 """
 from __future__ import annotations
 
-import csv
 import itertools
 import json
 import math
@@ -20,6 +19,7 @@ from pathlib import Path
 from pydantic import Field
 
 from .. import api
+from ..run_files import outcome_rows, write_table
 from ..options import StudyOptions
 from .scenes import Fur, Impact, ROOT_GAP, fur_scene, fur_top, plate_scene
 
@@ -143,23 +143,6 @@ COLUMNS = ["run_id", "kind", "speed", "angle_deg", "radius_mm", "length_mm", "ro
            "momentum_residual", "projectile_momentum_residual"]
 
 
-def _rows(outcomes) -> list[dict]:
-    rows = []
-    for o in outcomes:
-        s = o.summary or {}
-        row = {c: o.params.get(c, "") for c in COLUMNS}
-        row.update({c: s.get(c, "") for c in COLUMNS if c in s})
-        row.update(run_id=o.run_id, status=o.status)
-        rows.append(row)
-    return rows
-
-
-def _write_csv(path: Path, rows: list[dict], columns) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in columns})
 
 
 def compare(rows: list[dict]) -> list[dict]:
@@ -251,10 +234,10 @@ def _run_study(options: Options, out: Path) -> int:
     code, outcomes = run_study(lambda: build_specs(options), out, options, desc="fur runs")
     if code is not None:
         return code
-    rows = _rows(outcomes)
-    _write_csv(out / "fur.csv", rows, COLUMNS)
+    rows = outcome_rows(outcomes, COLUMNS)
+    write_table(out / "fur.csv", rows, COLUMNS)
     comparison = compare(rows)
-    _write_csv(out / "comparison.csv", comparison,
+    write_table(out / "comparison.csv", comparison,
                COLUMNS + ["bare_peak_force", "peak_ratio"])
     figures = _plots(out, rows, comparison)
     first = comparison[0] if comparison else None
