@@ -450,6 +450,9 @@ class CaseRunner:
     def _start(self) -> None:
         env = dict(os.environ)
         env.setdefault("NUMBA_NUM_THREADS", "1")
+        # the worker imports this checkout's engine, whichever checkout an install points at
+        root = str(Path(__file__).resolve().parents[2])
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
         self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker"],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      text=True, env=env)
