@@ -3,41 +3,41 @@ metrics a search may minimise or bound, and their aggregation over the scenario 
 
 Metrics per run (all SI; the target is the spinning body, its initial spin axis n):
 
-==================  ======  =================================================================
-metric              unit    meaning
-==================  ======  =================================================================
-spin_left           --      omega.n just after the first contact over |omega0| (seed 4.3.4:
-                            falls as the brush stiffens, below 0 once the brush throws the
-                            target back); a contact ends once the target has felt no force
-                            for 10 ms; a target caught for the whole run: omega.n at its end
-abs_spin_left       --      abs(spin_left): the thesis's metric to minimise
-delta_omega         rad/s   change of omega.n over the first contact
-contact_duration    s       duration of the first contact
-peak_force          N       largest contact force on the target (the whole run)
-peak_torque         N m     largest contact torque on the target about its centre
-peak_stress_ratio   --      largest bristle bending stress 4 M / (pi r^3) (M: the bond's
-                            bending moment at its midpoint, r: the radius there) over the
-                            limit --stress-limit-mpa
-brush_mass          kg      mass of the bristles (truncated cones)
-rest_time           s       time until |omega.n| stays below 5 % of omega0 (the run then
-                            goes on to --duration-s; ``inf`` when it never does)
-chaser_delta_v      m/s     Delta-v the chaser's thrusters supply over the run: a chaser with
-                            a controller: integral |F_actuator| dt / m (the controller's own
-                            ``delta_v`` record); a free chaser without one: integral |F_load|
-                            dt / m, F_load the brush's load (-root_force) plus the chaser's
-                            own contact force; a fixed brush: integral |root_force| dt over
-                            --chaser-mass-kg (the chaser it would be on)
-wheel_momentum      N m s   max over t of |integral_0^t tau dt|: a controlled chaser's tau
-                            is its controller's torque; otherwise the load's moment about
-                            the chaser's centre of mass (mount_torque + its contact torque),
-                            for a fixed brush about the brush base (-root_torque)
-peak_chaser_torque  N m     largest |moment of the load about the chaser's centre of mass|
-                            (fixed brush: about the brush base)
-peak_contact_pressure Pa    largest single bristle-target contact force (every contact of
-                            every recorded frame, from the engine's contact list) over the
-                            bristle tip's cross-section pi r_tip^2: a nominal pressure (the
-                            true Hertzian patch is smaller, its pressure higher)
-==================  ======  =================================================================
+=====================  ======  =================================================================
+metric                 unit    meaning
+=====================  ======  =================================================================
+spin_left              --      omega.n just after the first contact over |omega0| (seed 4.3.4:
+                               falls as the brush stiffens, below 0 once the brush throws the
+                               target back); a contact ends once the target has felt no force
+                               for 10 ms; a target caught for the whole run: omega.n at its end
+abs_spin_left          --      abs(spin_left): the thesis's metric to minimise
+delta_omega            rad/s   change of omega.n over the first contact
+contact_duration       s       duration of the first contact
+peak_force             N       largest contact force on the target (the whole run)
+peak_torque            N m     largest contact torque on the target about its centre
+peak_stress_ratio      --      largest bristle bending stress 4 M / (pi r^3) (M: the bond's
+                               bending moment at its midpoint, r: the radius there) over the
+                               limit --stress-limit-mpa
+brush_mass             kg      mass of the bristles (truncated cones)
+rest_time              s       time until |omega.n| stays below 5 % of omega0 (the run then
+                               goes on to --duration-s; ``inf`` when it never does)
+chaser_delta_v         m/s     Delta-v the chaser's thrusters supply over the run: a chaser with
+                               a controller: integral |F_actuator| dt / m (the controller's own
+                               ``delta_v`` record); a free chaser without one: integral |F_load|
+                               dt / m, F_load the brush's load (-root_force) plus the chaser's
+                               own contact force; a fixed brush: integral |root_force| dt over
+                               --chaser-mass-kg (the chaser it would be on)
+wheel_momentum         N m s   max over t of |integral_0^t tau dt|: a controlled chaser's tau
+                               is its controller's torque; otherwise the load's moment about
+                               the chaser's centre of mass (mount_torque + its contact torque),
+                               for a fixed brush about the brush base (-root_torque)
+peak_chaser_torque     N m     largest |moment of the load about the chaser's centre of mass|
+                               (fixed brush: about the brush base)
+peak_contact_pressure  Pa      largest single bristle-target contact force (every contact of
+                               every recorded frame, from the engine's contact list) over the
+                               bristle tip's cross-section pi r_tip^2: a nominal pressure (the
+                               true Hertzian patch is smaller, its pressure higher)
+=====================  ======  =================================================================
 
 "The chaser" is the body the brush is mounted on (``brushes.0.mount``); the spin rig's brush
 is fixed in the world, and then the chaser is the mount itself: its centre of mass is taken
@@ -80,6 +80,10 @@ METRICS = {
     "peak_contact_pressure": "largest single bristle-target contact force over the tip's "
                              "cross-section pi r_tip^2 (a nominal pressure), Pa",
 }
+#: what a trial keeps of each scenario run (and trials.csv shows): every metric, then the
+#: run's facts
+RUN_KEYS = tuple(METRICS) + ("n_contacts", "first_contact_at", "end_time", "dt", "steps",
+                             "sim_cpu_s", "task_cpu_s")
 #: metrics that need a chaser mass: a fixed brush needs --chaser-mass-kg for them
 NEEDS_CHASER_MASS = ("chaser_delta_v",)
 AGGREGATES = ("mean", "worst")

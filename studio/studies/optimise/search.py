@@ -26,7 +26,8 @@ from typing import Optional
 import numpy as np
 
 from .errors import StudyInputError
-from .metrics import NEEDS_CHASER_MASS, aggregate, parse_constraint, parse_objective
+from .metrics import (NEEDS_CHASER_MASS, RUN_KEYS, aggregate, parse_constraint,
+                      parse_objective)
 from .scenarios import Scenario, base_scene, scenario_scene, scenario_set
 from .variables import Variable, parse_variable
 
@@ -321,10 +322,7 @@ def _tell(study, trial, problem: Problem, outcomes: list[dict], log: SearchLog) 
             log.run_cpu_s += float(s.get("task_cpu_s") or o.get("wall_s") or 0.0)
             log.sim_cpu_s += float(s.get("sim_cpu_s") or 0.0)
     ev = problem.evaluate(outcomes)
-    keep = ("scenario", "status", "error", "spin_left", "abs_spin_left", "delta_omega",
-            "contact_duration", "peak_force", "peak_torque", "peak_stress_ratio",
-            "brush_mass", "rest_time", "n_contacts", "first_contact_at", "end_time",
-            "dt", "steps", "sim_cpu_s", "task_cpu_s")
+    keep = ("scenario", "status", "error") + RUN_KEYS
     trial.set_user_attr("scenarios", [{k: r.get(k) for k in keep} for r in ev["rows"]])
     if ev["failed"]:
         trial.set_user_attr("failed_runs", ev["failed"])
