@@ -25,6 +25,8 @@ from typing import Optional
 
 import numpy as np
 
+from .chaser_loads import brush_load_on_body, peak_magnitude, wheel_momentum
+
 TARGET = "target"
 CHASER = "chaser"
 CONTROLLER = "chaser_control"
@@ -77,14 +79,11 @@ def read_detumble(h5_path: Path) -> dict:
         d["angular_momentum"] = np.asarray(res.body_angular_momentum(TARGET))
         mounted = [b for b in scene.brushes if b.mount == CHASER]
         brush = mounted[0]
-        # the brushes' load on the chaser: their forces add; their torques are each about
-        # its own base, so the largest per frame is kept
-        d["chaser_force"] = -sum(np.asarray(res.series(f"brushes/{b.name}/root_force"))
-                                 for b in mounted)
-        if all(f"brushes/{b.name}/mount_torque" in res.channels() for b in mounted):
-            # about the chaser's centre of mass: these add (issue 25 item 6)
-            d["chaser_torque_com"] = sum(np.asarray(res.series(f"brushes/{b.name}/mount_torque"))
-                                         for b in mounted)
+        # the brushes' load on the chaser: their forces add; about the chaser's centre of
+        # mass their torques add too (issue 25 item 6)
+        d["chaser_force"], torque_com = brush_load_on_body(res, CHASER)
+        if torque_com is not None:
+            d["chaser_torque_com"] = torque_com
         d["chaser_mass"] = float(res.static(f"bodies/{CHASER}/mass"))
         for who in (TARGET, CHASER):
             d[f"{who}_position"] = np.asarray(res.series(f"bodies/{who}/position"))
@@ -204,7 +203,7 @@ def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0)
     in_contact = d["n_contacts"] > 0
     if "chaser_torque_com" in d and len(t):
         tq = np.linalg.norm(d["chaser_torque_com"], axis=1)
-        out["peak_chaser_torque_com"] = float(tq.max())
+        out["peak_chaser_torque_com"] = peak_magnitude(d["chaser_torque_com"])
         out["sliding_chaser_torque_com"] = (float(np.median(tq[in_contact]))
                                             if in_contact.any() else 0.0)
     else:
@@ -216,7 +215,7 @@ def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0)
     out.update(delta_v_gimballed=dv_g, delta_v_per_axis=dv_a, isp=isp,
                propellant_gimballed=propellant_mass(m, dv_g, isp),
                propellant_per_axis=propellant_mass(m, dv_a, isp))
-    out["wheel_momentum"] = (float(np.linalg.norm(d["angular_impulse"], axis=1).max())
+    out["wheel_momentum"] = (wheel_momentum(d["angular_impulse"])
                              if "angular_impulse" in d and len(t) else None)
     if len(t):
         rel = d[f"{TARGET}_velocity"][-1] - d[f"{CHASER}_velocity"][-1]

@@ -255,7 +255,7 @@ def test_study_optimise_end_to_end_on_a_tiny_scene(tmp_path):
     root = Path(__file__).resolve().parents[2]
     out = tmp_path / "search"
     cmd = [sys.executable, "-m", "studio.cli", "study", "optimise", "--preset", "spin_cube_20",
-           "--variables", "bending_stiffness=1e-5:1e-4:log", "brushes.0.rows=2:4",
+           "--variables", "bending_stiffness=1e-5:1e-4:log,brushes.0.rows=2:4",
            "--cubes-mm", "20", "--trials", "2", "--duration-s", "0.25", "--workers", "1",
            "--no-progress", "-o", str(out)]
     proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=1500)

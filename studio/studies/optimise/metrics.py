@@ -3,25 +3,48 @@ metrics a search may minimise or bound, and their aggregation over the scenario 
 
 Metrics per run (all SI; the target is the spinning body, its initial spin axis n):
 
-==================  ======  =================================================================
-metric              unit    meaning
-==================  ======  =================================================================
-spin_left           --      omega.n just after the first contact over |omega0| (seed 4.3.4:
-                            falls as the brush stiffens, below 0 once the brush throws the
-                            target back); a contact ends once the target has felt no force
-                            for 10 ms; a target caught for the whole run: omega.n at its end
-abs_spin_left       --      abs(spin_left): the thesis's metric to minimise
-delta_omega         rad/s   change of omega.n over the first contact
-contact_duration    s       duration of the first contact
-peak_force          N       largest contact force on the target (the whole run)
-peak_torque         N m     largest contact torque on the target about its centre
-peak_stress_ratio   --      largest bristle bending stress 4 M / (pi r^3) (M: the bond's
-                            bending moment at its midpoint, r: the radius there) over the
-                            limit --stress-limit-mpa
-brush_mass          kg      mass of the bristles (truncated cones)
-rest_time           s       time until |omega.n| stays below 5 % of omega0 (the run then
-                            goes on to --duration-s; ``inf`` when it never does)
-==================  ======  =================================================================
+=====================  ======  =================================================================
+metric                 unit    meaning
+=====================  ======  =================================================================
+spin_left              --      omega.n just after the first contact over |omega0| (seed 4.3.4:
+                               falls as the brush stiffens, below 0 once the brush throws the
+                               target back); a contact ends once the target has felt no force
+                               for 10 ms; a target caught for the whole run: omega.n at its end
+abs_spin_left          --      abs(spin_left): the thesis's metric to minimise
+delta_omega            rad/s   change of omega.n over the first contact
+contact_duration       s       duration of the first contact
+peak_force             N       largest contact force on the target (the whole run)
+peak_torque            N m     largest contact torque on the target about its centre
+peak_stress_ratio      --      largest bristle bending stress 4 M / (pi r^3) (M: the bond's
+                               bending moment at its midpoint, r: the radius there) over the
+                               limit --stress-limit-mpa
+brush_mass             kg      mass of the bristles (truncated cones)
+rest_time              s       time until |omega.n| stays below 5 % of omega0 (the run then
+                               goes on to --duration-s; ``inf`` when it never does)
+chaser_delta_v         m/s     Delta-v the chaser's thrusters supply over the run: a chaser with
+                               a controller: integral |F_actuator| dt / m (the controller's own
+                               ``delta_v`` record); a free chaser without one: integral |F_load|
+                               dt / m, F_load the brush's load (-root_force) plus the chaser's
+                               own contact force; a fixed brush: integral |root_force| dt over
+                               --chaser-mass-kg (the chaser it would be on)
+wheel_momentum         N m s   max over t of |integral_0^t tau dt|: a controlled chaser's tau
+                               is its controller's torque; otherwise the load's moment about
+                               the chaser's centre of mass (mount_torque + its contact torque),
+                               for a fixed brush about the brush base (-root_torque)
+peak_chaser_torque     N m     largest |moment of the load about the chaser's centre of mass|
+                               (fixed brush: about the brush base)
+peak_contact_pressure  Pa      largest single bristle-target contact force (every contact of
+                               every recorded frame, from the engine's contact list) over the
+                               bristle tip's cross-section pi r_tip^2: a nominal pressure (the
+                               true Hertzian patch is smaller, its pressure higher)
+=====================  ======  =================================================================
+
+"The chaser" is the body the brush is mounted on (``brushes.0.mount``); the spin rig's brush
+is fixed in the world, and then the chaser is the mount itself: its centre of mass is taken
+at the brush base and chaser_delta_v needs its mass (--chaser-mass-kg, refused without).
+All figures are over the recorded run (it ends 10 ms after the first contact unless
+rest_time is asked for), integrals by the trapezoid rule over the frames
+(``studio.studies.chaser_loads``, shared with the detumble study).
 
 Aggregation over scenarios: ``mean``, ``worst`` (the largest: every metric is minimised)
 or ``pNN`` (the NN-th percentile).
@@ -47,7 +70,22 @@ METRICS = {
     "peak_stress_ratio": "largest bristle bending stress over the material's limit",
     "brush_mass": "mass of the bristles, kg",
     "rest_time": "time until the spin stays below 5 % of its initial value, s",
+    "chaser_delta_v": "Delta-v the chaser's thrusters supply, integral |F| dt / m (the "
+                      "controller's force, else the brush's load), m/s",
+    "wheel_momentum": "largest |angular impulse| on the chaser's attitude over the run "
+                      "(the controller's torque, else the load about the chaser's centre of "
+                      "mass), N m s",
+    "peak_chaser_torque": "largest moment of the brush's load about the chaser's centre of "
+                          "mass (fixed brush: about its base), N m",
+    "peak_contact_pressure": "largest single bristle-target contact force over the tip's "
+                             "cross-section pi r_tip^2 (a nominal pressure), Pa",
 }
+#: what a trial keeps of each scenario run (and trials.csv shows): every metric, then the
+#: run's facts
+RUN_KEYS = tuple(METRICS) + ("n_contacts", "first_contact_at", "end_time", "dt", "steps",
+                             "sim_cpu_s", "task_cpu_s")
+#: metrics that need a chaser mass: a fixed brush needs --chaser-mass-kg for them
+NEEDS_CHASER_MASS = ("chaser_delta_v",)
 AGGREGATES = ("mean", "worst")
 REST_FRACTION = 0.05
 QUIET_AFTER_CONTACT = 0.01  # s without contact force that ends the first contact's run
@@ -136,6 +174,27 @@ class FirstContactMonitor:
         return self.fired
 
 
+class ContactForcePeak:
+    """``observer`` for ``engine.run``: the largest single bristle-body contact force on body
+    ``body_index`` over the recorded frames (N), read at each frame from the engine's own
+    contact list (``System.body_pairs``: each active contact's force ``fc``), which no
+    channel records."""
+
+    def __init__(self, system, body_index: int):
+        self.system, self.k = system, body_index
+        self.peak = 0.0
+
+    def __call__(self, frame) -> None:
+        from engine.kernels.body_contacts import BSLOT
+
+        bl = self.system.body_pairs  # read each time: a growing list is replaced
+        n = int(bl.n[0])
+        on = (bl.active[:n * BSLOT] != 0) & (np.repeat(bl.b[:n], BSLOT) == self.k)
+        if on.any():
+            self.peak = max(self.peak,
+                            float(np.linalg.norm(bl.fc[:n * BSLOT][on], axis=1).max()))
+
+
 def run_metrics(scene, h5_path: Path, params: dict) -> dict:
     """Dask task (``"module:function"`` of :mod:`studio.studies.runner`): run one design x
     scenario, return its metrics (JSON-able; ``sim_cpu_s``: CPU of build + run, the rest of
@@ -151,12 +210,15 @@ def run_metrics(scene, h5_path: Path, params: dict) -> dict:
     system = engine.build(scene)
     k = list(system.body_names).index(target)
     monitor = FirstContactMonitor(system, k)
+    contact_peak = ContactForcePeak(system, k)
     cancel = (lambda: api.cancel_requested()) if full else \
         (lambda: monitor() or api.cancel_requested())
-    result = engine.run(system, output=h5_path, cancel=cancel)
+    result = engine.run(system, output=h5_path, cancel=cancel, observer=contact_peak)
     sim_cpu = time.process_time() - c0
     api.check_cancel()
-    out = analyse_run(h5_path, target, float(params.get("stress_limit", 5e6)))
+    out = analyse_run(h5_path, target, float(params.get("stress_limit", 5e6)),
+                      chaser_mass=params.get("chaser_mass"),
+                      peak_contact_force=contact_peak.peak)
     status = result.status
     if status == "cancelled" and monitor.fired:
         status = "stopped"
@@ -166,13 +228,19 @@ def run_metrics(scene, h5_path: Path, params: dict) -> dict:
     return out
 
 
-def analyse_run(h5_path: Path, target: str, stress_limit: float) -> dict:
-    """The metrics of a recorded run (see the module's table)."""
+def analyse_run(h5_path: Path, target: str, stress_limit: float, *,
+                chaser_mass: Optional[float] = None,
+                peak_contact_force: Optional[float] = None) -> dict:
+    """The metrics of a recorded run (see the module's table). ``chaser_mass``: the mass of
+    the chaser a fixed brush would be on (kg; a mounted brush's chaser has its own);
+    ``peak_contact_force``: :class:`ContactForcePeak`'s figure (no channel records it;
+    without it peak_contact_pressure is None)."""
     import engine
 
     from ..spin import contact_intervals
 
     with engine.open_result(h5_path) as res:
+        load = read_chaser_load(res, chaser_mass)
         t = np.asarray(res.time)
         w = np.asarray(res.series(f"bodies/{target}/angular_velocity"))
         f = np.asarray(res.series(f"bodies/{target}/contact_force"))
@@ -207,7 +275,62 @@ def analyse_run(h5_path: Path, target: str, stress_limit: float) -> dict:
     out["rest_time"] = (float(t[fast[-1] + 1]) if fast.size and fast[-1] + 1 < len(t)
                         else (0.0 if not fast.size else float("inf")))
     out["peak_stress_ratio"] = _peak_stress(scene, moment) / stress_limit
+    out.update(chaser_figures(**load))
+    r_tip = scene.brushes[0].tip_radius
+    out["peak_contact_pressure"] = (None if peak_contact_force is None
+                                    else float(peak_contact_force / (math.pi * r_tip ** 2)))
     return out
+
+
+def read_chaser_load(res, chaser_mass: Optional[float] = None) -> dict:
+    """The load the brush puts on its chaser (see the module's table), from an open result
+    with the ``bodies`` and ``root_force`` channel groups: :func:`chaser_figures`'s
+    arguments."""
+    from ..chaser_loads import brush_load_on_body
+
+    scene = res.scene
+    brush = scene.brushes[0]
+    t = np.asarray(res.time)
+    if brush.mount is None:  # fixed: the mount is the chaser, its centre at the base
+        force = -np.asarray(res.series(f"brushes/{brush.name}/root_force"))
+        torque = -np.asarray(res.series(f"brushes/{brush.name}/root_torque"))
+        return {"time": t, "force": force, "torque": torque, "mass": chaser_mass}
+    if chaser_mass is not None:
+        raise StudyInputError(f"chaser mass {chaser_mass} kg given, but the brush is mounted "
+                              f"on body {brush.mount!r}, whose own mass counts")
+    chaser = brush.mount
+    force, torque = brush_load_on_body(res, chaser)
+    force = force + np.asarray(res.series(f"bodies/{chaser}/contact_force"))
+    torque = torque + np.asarray(res.series(f"bodies/{chaser}/contact_torque"))
+    out = {"time": t, "force": force, "torque": torque,
+           "mass": float(res.static(f"bodies/{chaser}/mass"))}
+    controllers = [c.name for c in scene.controllers if c.body == chaser]
+    if controllers:
+        out["delta_v"] = sum(np.asarray(res.series(f"controllers/{c}/delta_v"))
+                             for c in controllers)
+        out["angular_impulse"] = sum(np.asarray(res.series(f"controllers/{c}/angular_impulse"))
+                                     for c in controllers)
+    return out
+
+
+def chaser_figures(time, force, torque, mass: Optional[float], *, delta_v=None,
+                   angular_impulse=None) -> dict:
+    """chaser_delta_v, wheel_momentum and peak_chaser_torque of a run from the load on the
+    chaser (``force``, N, and ``torque`` about its centre of mass, N m: frames x 3) and, for a
+    controlled chaser, its controller's running records ``delta_v`` (m/s, frames) and
+    ``angular_impulse`` (N m s, frames x 3), which then say what the thrusters and wheels
+    did. ``mass`` None (a fixed brush without --chaser-mass-kg): chaser_delta_v is None."""
+    from ..chaser_loads import (load_delta_v, peak_magnitude, running_integral,
+                                wheel_momentum)
+
+    if delta_v is not None:
+        dv = float(np.asarray(delta_v)[-1]) if len(delta_v) else 0.0
+    else:
+        dv = None if mass is None else load_delta_v(time, force, mass)
+    if angular_impulse is None:
+        angular_impulse = running_integral(time, torque)
+    return {"chaser_delta_v": dv, "wheel_momentum": wheel_momentum(angular_impulse),
+            "peak_chaser_torque": peak_magnitude(torque)}
 
 
 def _peak_stress(scene, moment: np.ndarray) -> float:

@@ -36,7 +36,9 @@ class Options(StudyOptions):
         description="objectives to minimise, each METRIC[:AGG], AGG = mean | worst | pNN "
                     "(a percentile over the scenarios); metrics: docs/design.md "
                     "(abs_spin_left, spin_left, delta_omega, peak_force, peak_torque, "
-                    "peak_stress_ratio, brush_mass, contact_duration, rest_time)")
+                    "peak_stress_ratio, brush_mass, contact_duration, rest_time, "
+                    "chaser_delta_v, wheel_momentum, peak_chaser_torque, "
+                    "peak_contact_pressure)")
     constraints: list[str] = Field(
         default_factory=list,
         description="constraints, each METRIC[:AGG]<=LIMIT (SI units), e.g. "
@@ -60,6 +62,11 @@ class Options(StudyOptions):
                                 "(+-20 %), uniform, as montecarlo draws them; 0: nominal")
     seed: int = Field(1, ge=0, description="seed of the material draws (every design sees "
                                            "the same draws)")
+    chaser_mass_kg: Optional[float] = Field(
+        None, gt=0, description="mass of the chaser a fixed brush would be on (the spin "
+                                "rig's brush is fixed): chaser_delta_v is its load's impulse "
+                                "over this; refused for a brush mounted on a body (its own "
+                                "mass counts)", json_schema_extra={"unit": "kg"})
     stress_limit_mpa: float = Field(5.0, gt=0, description="bristle material's allowed "
                                     "bending stress (peak_stress_ratio = peak stress / this)",
                                     json_schema_extra={"unit": "MPa"})

@@ -11,6 +11,7 @@ from typing import Optional
 import numpy as np
 
 from .groups import groups
+from .metrics import RUN_KEYS
 from .search import Problem, counted, design_key
 
 
@@ -42,10 +43,7 @@ def write_trials_csv(path: Path, study, problem: Problem) -> int:
     var_names = [v.path for v in problem.variables]
     obj_names = [f"objective.{m}:{a}" for m, a in problem.objectives]
     con_names = [f"constraint.{m}:{a}<={v:g}" for m, a, v in problem.constraints]
-    metric_keys = ("spin_left", "abs_spin_left", "delta_omega", "contact_duration",
-                   "peak_force", "peak_torque", "peak_stress_ratio", "brush_mass",
-                   "rest_time", "n_contacts", "first_contact_at", "end_time", "dt", "steps",
-                   "sim_cpu_s", "task_cpu_s")
+    metric_keys = RUN_KEYS
     scen = {s.scenario_id: s for s in problem.scenarios}
     header = (["trial", "state", "feasible", "design_key"] + var_names + obj_names + con_names
               + ["scenario", "cube_mm", "spin_rate", "config", "tumbling", "e_factor",

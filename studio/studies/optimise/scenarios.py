@@ -123,6 +123,7 @@ def scenario_scene(base: dict, design: dict, scenario: Scenario, *, nodes: int,
     if orientation == "vertical":
         brush["rows"], brush["columns"] = brush["columns"], brush["rows"]
     tips = a / 2 if position == "P1" else a * (1 + math.sqrt(2)) / 4
+    _check_mount(scene, brush)
     brush["base"] = {"position": [tips + brush["bristle_length"] + brush["tip_radius"], 0.0,
                                   0.0 if level == "axis" else a / 2],
                      "orientation": list(Q_Z_TO_MINUS_X)}
@@ -152,7 +153,8 @@ def scenario_scene(base: dict, design: dict, scenario: Scenario, *, nodes: int,
     run = scene.setdefault("run", {})
     run["duration"] = float(duration)
     run["record_interval"] = float(record_interval)
-    run["channels"] = ["bodies", "bending"]
+    # root_force: the brush's load on its chaser or mount (chaser_delta_v, wheel_momentum)
+    run["channels"] = ["bodies", "bending", "root_force"]
     run["stop"] = None
     if dt_safety is not None:
         run["dt_safety"] = float(dt_safety)
@@ -169,3 +171,20 @@ def _target(scene: dict) -> dict:
         return bodies[0]
     raise StudyInputError("the design's scene needs a body named 'cube' (the target) or "
                           "exactly one body")
+
+
+def _check_mount(scene: dict, brush: dict) -> None:
+    """The rig places the brush base in world coordinates; a brush mounted on a chaser is
+    placed in the chaser's frame, so that chaser must sit at the origin, unrotated."""
+    mount = brush.get("mount")
+    if mount is None:
+        return
+    body = next((b for b in scene.get("bodies", []) if b.get("name") == mount), None)
+    pose = (body or {}).get("pose") or {}
+    position = [float(v) for v in pose.get("position", (0.0, 0.0, 0.0))]
+    orientation = [float(v) for v in pose.get("orientation", (1.0, 0.0, 0.0, 0.0))]
+    if position != [0.0, 0.0, 0.0] or orientation != [1.0, 0.0, 0.0, 0.0]:
+        raise StudyInputError(
+            f"brushes.0.mount: the brush is mounted on {mount!r}, which the design search "
+            f"needs at the origin, unrotated (its pose is {position}, {orientation}): the "
+            f"rig places the brush base in world coordinates")

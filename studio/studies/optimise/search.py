@@ -26,7 +26,8 @@ from typing import Optional
 import numpy as np
 
 from .errors import StudyInputError
-from .metrics import aggregate, parse_constraint, parse_objective
+from .metrics import (NEEDS_CHASER_MASS, RUN_KEYS, aggregate, parse_constraint,
+                      parse_objective)
 from .scenarios import Scenario, base_scene, scenario_scene, scenario_set
 from .variables import Variable, parse_variable
 
@@ -49,6 +50,7 @@ class Problem:
     stress_limit: float
     target: str = "cube"
     full_run: bool = False
+    chaser_mass: Optional[float] = None  # kg, of the chaser a fixed brush would be on
     task: str = TASK  # the run's task (tests give a synthetic one with a known optimum)
 
     @classmethod
@@ -70,7 +72,9 @@ class Problem:
         used = {m for m, _ in objectives} | {m for m, _, _ in constraints}
         problem = cls(base, variables, scenarios, objectives, constraints, options.nodes,
                       options.duration_s, options.stiffness_via,
-                      options.stress_limit_mpa * 1e6, full_run="rest_time" in used)
+                      options.stress_limit_mpa * 1e6, full_run="rest_time" in used,
+                      chaser_mass=options.chaser_mass_kg)
+        _check_chaser(base, used, options.chaser_mass_kg)
         # every design's scene must be valid: check the corners of the box now
         import engine
 
@@ -87,12 +91,14 @@ class Problem:
     def setup_digest(self) -> str:
         """Hash of what makes trials comparable (not the budget): a resumed search must
         have the same."""
-        text = json.dumps({"base": self.base, "variables": [v.__dict__ for v in self.variables],
-                           "scenarios": [s.to_dict() for s in self.scenarios],
-                           "objectives": self.objectives, "constraints": self.constraints,
-                           "nodes": self.nodes, "duration": self.duration,
-                           "via": self.stiffness_via, "stress": self.stress_limit},
-                          sort_keys=True, default=str)
+        setup = {"base": self.base, "variables": [v.__dict__ for v in self.variables],
+                 "scenarios": [s.to_dict() for s in self.scenarios],
+                 "objectives": self.objectives, "constraints": self.constraints,
+                 "nodes": self.nodes, "duration": self.duration,
+                 "via": self.stiffness_via, "stress": self.stress_limit}
+        if self.chaser_mass is not None:  # only then: earlier searches keep their digest
+            setup["chaser_mass"] = self.chaser_mass
+        text = json.dumps(setup, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def scene(self, design: dict, scenario: Scenario, *, refined: bool = False) -> dict:
@@ -109,6 +115,8 @@ class Problem:
         key = prefix or design_key(design)
         params = {"target": self.target, "stress_limit": self.stress_limit,
                   "full_run": self.full_run}
+        if self.chaser_mass is not None:
+            params["chaser_mass"] = self.chaser_mass
         return [RunSpec(f"{key}{'_fine' if refined else ''}_{s.scenario_id}",
                         self.scene(design, s, refined=refined),
                         dict(params, scenario=s.scenario_id, design=design), self.task)
@@ -133,6 +141,23 @@ class Problem:
         values = [agg(m, a) for m, a in self.objectives]
         cons = [agg(m, a) - limit for m, a, limit in self.constraints]
         return {"rows": rows, "values": values, "constraints": cons, "failed": []}
+
+
+def _check_chaser(base: dict, used: set, chaser_mass: Optional[float]) -> None:
+    """A fixed brush has no chaser mass of its own: the metrics that need one need
+    --chaser-mass-kg; a mounted brush's chaser has its own, so the option is refused."""
+    mount = base["brushes"][0].get("mount")
+    if mount is None:
+        for metric in NEEDS_CHASER_MASS:
+            if metric in used and chaser_mass is None:
+                raise StudyInputError(
+                    f"{metric}: the design's brush is fixed in the world (no mount), so there "
+                    f"is no chaser mass to divide its load's impulse by: give "
+                    f"--chaser-mass-kg (the chaser it would be on), or mount the brush on a "
+                    f"body")
+    elif chaser_mass is not None:
+        raise StudyInputError(f"chaser_mass_kg: the brush is mounted on body {mount!r}, "
+                              f"whose own mass counts; leave --chaser-mass-kg out")
 
 
 def design_key(design: dict) -> str:
@@ -297,10 +322,7 @@ def _tell(study, trial, problem: Problem, outcomes: list[dict], log: SearchLog) 
             log.run_cpu_s += float(s.get("task_cpu_s") or o.get("wall_s") or 0.0)
             log.sim_cpu_s += float(s.get("sim_cpu_s") or 0.0)
     ev = problem.evaluate(outcomes)
-    keep = ("scenario", "status", "error", "spin_left", "abs_spin_left", "delta_omega",
-            "contact_duration", "peak_force", "peak_torque", "peak_stress_ratio",
-            "brush_mass", "rest_time", "n_contacts", "first_contact_at", "end_time",
-            "dt", "steps", "sim_cpu_s", "task_cpu_s")
+    keep = ("scenario", "status", "error") + RUN_KEYS
     trial.set_user_attr("scenarios", [{k: r.get(k) for k in keep} for r in ev["rows"]])
     if ev["failed"]:
         trial.set_user_attr("failed_runs", ev["failed"])
