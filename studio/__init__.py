@@ -1,6 +1,8 @@
-"""Brush Studio's user-facing layer: the command line (``studio.cli``), and, to come, the 3D
-studio, the worker/job layer and the HTTP server. It talks to the engine only through the
-engine's public API (``import engine``) and to runs only through result files."""
+"""Brush Studio's user-facing layer, talking to the engine only through its public API
+(``import engine``) and to runs only through result files or in-memory observers: the command
+line (``studio.cli`` and ``commands``), the 3D web studio (``app``, ``session``, ``panels``,
+``ui_*``), the job layer (``jobs``) and HTTP service (``server``, ``client``), the studies
+(``studies``) and the plots (``result_plots``, ``study_charts``)."""
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version as _version

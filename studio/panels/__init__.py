@@ -3,5 +3,6 @@ presets, bodies, uploads), ``run`` (start, cancel, the shared Runs list, the liv
 ``results`` (playback, plots, downloads; ``result_frames.ResultFrames`` reads a result
 file for display, ``studio.result_plots`` draws its plots)
 and ``studies`` (the Studies tab on the job pool). Each is a mixin of
-:class:`studio.app.Studio`, which owns the state they share (the design, the view, the
-lock) and the poller; ``common`` holds formatting and display constants."""
+:class:`studio.session.Session` (one browser tab's design, view and runs), which
+:class:`studio.app.Studio` creates per client and polls; ``common`` holds formatting and
+display constants."""
