@@ -67,11 +67,13 @@ def balance(restitution: float, dt_factor: float) -> tuple[float, float, int, in
 # * damped contacts (e = 0.5) with friction: before, the dashpot's work was booked with the
 #   force at the step's end and the half-step velocity, a first-order error (0.259 %,
 #   0.135 %, 0.062 %: ratio 0.24 at dt/4); booked as the trapezoid of the step's first and
-#   last force (``contact_law.contact_force``), 0.0078 %, 0.0033 %, 0.00072 % (ratio 0.093,
-#   and 0.00036 % at dt/8). 0.05 %: 6x the measured figure, and the old booking fails it by
-#   5x (the 0.2 % would pass 0.259 % nearly); 0.15: below first order's 0.25 (the
-#   old booking's 0.24 fails it), 1.6x above the measured 0.093.
+#   last force (``contact_law.contact_force``), 0.0078 %, 0.0033 %, 0.00072 % (ratio 0.093;
+#   0.00036 % at dt/8, ``balance(0.5, 0.125)``). 0.05 %: 6x the measured figure, and the
+#   old booking fails it by 5x (the 0.2 % would nearly pass 0.259 %); 0.15: below
+#   first order's 0.25 (the old booking's 0.24 fails it), 1.6x above the measured 0.093.
 BOUNDS = {1.0: (0.002, 0.5), 0.5: (0.0005, 0.15)}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("restitution", [1.0, 0.5], ids=["elastic", "damped"])
 def test_frictional_multi_contact_impact_books_close(restitution):
