@@ -101,7 +101,8 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
       close; zero while the contact sticks;
     * stored: ``k_n overlap^2 / 2 + |F_t|^2 / (2 k_t)``;
     * released: ``|F_t|^2 / (2 k_t) - f_d v_n dt / 2``, the tangential spring's energy and
-      the dashpot's half of the coming step, booked if the contact lets go then.
+      the first half of the coming step's dashpot work (with this step's velocity), booked
+      if the contact lets go then.
 
     Why the trapezoid (second order): ``v`` is the leapfrog's half-step velocity
     v_{k-1/2}, the one that drifted the positions from x_{k-1} to x_k; the two half kicks
@@ -111,9 +112,10 @@ def contact_force(nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff,
     up to a term that telescopes (the books' error stays O(dt^2), it does not accumulate).
     The spring's trapezoid is exactly the change of ``k_n overlap^2 / 2``; the dashpot's
     must be booked the same way: ``-f_d v_n dt`` alone (the step's end force) misses
-    ``(f_d,prev - f_d) v_n dt / 2`` per step, a first-order error of the books. (Booked
-    along the current normal and at the current contact point; their turn over a step is a
-    smaller, higher-order remainder.)
+    ``(f_d,prev - f_d) v_n dt / 2`` per step, a first-order error of the books. (Both
+    halves are booked along the current normal at the current contact point: the turn of
+    these over a step leaves a remainder that scales with how fast they turn; the 5 x 5
+    brush's damped books fall from 0.0078 % at dt to 0.0007 % at dt/4, test_energy_books.)
 
     With ``friction == SLIP_FROZEN`` the kept force is the trial force, never capped: the
     applied tangential force is the trial's return to Coulomb's cone, so within a
