@@ -25,7 +25,8 @@ from .build_bodies import BodyPart, build_bodies, start_on_profiles
 from .build_bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
 from .build_contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from .build_loads import build_loads, build_mission
-from .kernels.contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
+from .kernels.contact_law import (HISTORY_COLUMNS, NO_FRICTION, SLIP_EACH_STEP,
+                                  restitution_damping_ratio)
 from .errors import SceneError
 from .layout import quat_to_matrix
 from .kernels.mesh_contact import initial_overlap
@@ -146,8 +147,8 @@ def build(scene: Scene) -> System:
         _check_mesh_overlap(body_part, warnings)
     system = System(scene=scene, nodes=bristles.nodes, bonds=bristles.bonds,
                     roots=bristles.roots, bodies=body_part.bodies,
-                    pairs=_pair_list(INITIAL_LIST_CAPACITY, needs.friction_bristle),
-                    body_pairs=_body_list(INITIAL_LIST_CAPACITY, needs.friction_body),
+                    pairs=_pair_list(INITIAL_LIST_CAPACITY, needs.history_bristle),
+                    body_pairs=_body_list(INITIAL_LIST_CAPACITY, needs.history_body),
                     loads=loads, tables=tables,
                     flags=flags, acc=np.zeros(ACC_SIZE), err=np.zeros(4),
                     stage_time=np.zeros(len(STAGES)), limits=limits, dt=dt,
@@ -261,32 +262,36 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
 
 
 # ----------------------------------------------------------------------------- lists
-def _pair_list(cap: int, friction: bool) -> PairList:
-    """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; tangential
-    history (the kept force and its spring's energy, ``contact_law.contact_with_history``)
-    only where there is friction."""
+def _pair_list(cap: int, history: bool) -> PairList:
+    """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; contact history
+    (the kept tangential force, the energy released on letting go, the dashpot force:
+    ``contact_law.contact_with_history``) only where there is friction or damping, else no
+    rows."""
     from .kernels.contacts import NSLOT
     c = cap * NSLOT
-    h = c if friction else 1
-    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 4)),
+    h = c if history else 0
+    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
+                    ft=np.zeros((h, HISTORY_COLUMNS)),
                     active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
                     s=np.zeros(c), t=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
-                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, 4)),
+                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, HISTORY_COLUMNS)),
                     xf=np.zeros((c, 4, 3)))
 
 
-def _body_list(cap: int, friction: bool) -> BodyList:
-    """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each."""
+def _body_list(cap: int, history: bool) -> BodyList:
+    """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each;
+    history as in :func:`_pair_list`."""
     from .kernels.body_contacts import BSLOT
     c = cap * BSLOT
-    h = c if friction else 1
-    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64), ft=np.zeros((h, 4)),
+    h = c if history else 0
+    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
+                    ft=np.zeros((h, HISTORY_COLUMNS)),
                     active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
                     par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, 4)), xf=np.zeros((c, 4, 3)),
+                    ft2=np.zeros((h, HISTORY_COLUMNS)), xf=np.zeros((c, 4, 3)),
                     deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
 
 
@@ -295,23 +300,23 @@ def grow_lists(system: System, which: int, needed: int) -> None:
     cap = int(needed * 1.5) + 64
     if which == 1:
         old = system.pairs
-        new = _pair_list(cap, system.flags.friction_bristle)
+        new = _pair_list(cap, old.ft.shape[0] > 0)
         n = int(old.n[0])
         new.a[:n] = old.a[:n]
         new.b[:n] = old.b[:n]
-        if system.flags.friction_bristle:
+        if old.ft.shape[0] > 0:
             from .kernels.contacts import NSLOT
             new.ft[:n * NSLOT] = old.ft[:n * NSLOT]
         new.n[0] = n
         system.pairs = new
     else:
         old = system.body_pairs
-        new = _body_list(cap, system.flags.friction_body)
+        new = _body_list(cap, old.ft.shape[0] > 0)
         n = int(old.n[0])
         new.s[:n] = old.s[:n]
         new.b[:n] = old.b[:n]
         new.deep[:n] = old.deep[:n]
-        if system.flags.friction_body:
+        if old.ft.shape[0] > 0:
             from .kernels.body_contacts import BSLOT
             new.ft[:n * BSLOT] = old.ft[:n * BSLOT]
         new.n[0] = n

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import meshes
 from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
+from .kernels.contact_law import HISTORY_COLUMNS
 from .errors import SceneError
 from .layout import quat_conj, quat_mul, quat_to_matrix
 from .kernels.mesh_contact import contact_points, point_contact_length
@@ -286,8 +287,9 @@ def build_bodies(scene: Scene, mat_index: dict, orbit_n: float, warnings: list) 
         v0=np.asarray(kin[4], float), v1=np.asarray(kin[5], float), wseg=np.asarray(kin[6], float),
         q0=np.asarray(kin[7], float), cursor=np.zeros(K, np.int64),
         pos_build=pos.copy(), q_build=a["q"].copy(), pos0=pos.copy(), **surfaces.tables(),
-        ft_bb=np.zeros((K, K, 3)), scratch=np.zeros(3), scratch2=np.zeros((2, 3)),
-        mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)), ft_mesh=np.zeros((1, 1, 3)),
+        ft_bb=np.zeros((K, K, HISTORY_COLUMNS)), scratch=np.zeros(3), scratch2=np.zeros((2, 3)),
+        mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)),
+        ft_mesh=np.zeros((0, K, HISTORY_COLUMNS)),  # rows only with history (build_contacts)
         f_contact=np.zeros((K, 3)), tq_contact=np.zeros((K, 3)))
     return BodyPart(bodies=bodies, names=[b.name for b in scene.bodies], geometry=geoms,
                     shape_to_body=shape_to_body, point_len=surfaces.point_len)

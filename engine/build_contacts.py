@@ -4,8 +4,8 @@ A node stays within its reach of its root (the arc length of the next node, stre
 the bristle's largest radius) while roots keep their distances on a fixed or rigid base; a
 body stays within a region over the run (fixed, hinged, or along its kinematic profile).
 From these come the contact stages the scene needs (bristle-bristle only if two bristles can
-meet, and so on), the tangential history they keep (only where there is friction), the
-mesh-mesh pair tables, and the contact stiffness each node and each body must be stable
+meet, and so on), the contact history they keep (only where there is friction or damping),
+the mesh-mesh pair tables, and the contact stiffness each node and each body must be stable
 with (``engine.timestep``).
 """
 from __future__ import annotations
@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
+from .kernels.contact_law import HISTORY_COLUMNS
 from .errors import SceneError
 from .kernels.mesh_contact import mesh_contact_stiffness, pair_stiffness
 from .timestep import BRISTLE_CONTACTS_PER_NODE
@@ -22,7 +23,7 @@ from .timestep import BRISTLE_CONTACTS_PER_NODE
 
 @dataclass
 class ContactNeeds:
-    """The contacts a scene can have, and whether they keep a friction history."""
+    """The contacts a scene can have, and whether they keep a contact history."""
 
     bristle_bristle: bool
     bristle_body: bool
@@ -31,6 +32,9 @@ class ContactNeeds:
     friction_bristle: bool
     friction_body: bool
     friction_body_body: bool
+    history_bristle: bool         # contact history kept: friction or damping (restitution < 1)
+    history_body: bool
+    history_body_body: bool
     node_partners: np.ndarray     # per node, how many other bristles can touch its segments
     bristle_materials: list[int]
     body_materials: list[int]     # of the colliding bodies
@@ -39,7 +43,7 @@ class ContactNeeds:
 
 def contact_needs(scene, bristles, body_part, tables, warnings: list) -> ContactNeeds:
     """Which contacts can happen. Fills the mesh-mesh pair tables of the bodies
-    (``mesh_kn``, ``mesh_len``) and sizes their tangential history (``ft_mesh``, replacing
+    (``mesh_kn``, ``mesh_len``) and sizes their contact history (``ft_mesh``, replacing
     ``body_part.bodies``); warns about mesh pairs that cannot touch (not watertight); refuses
     a ``no_contact_with`` that names a sphere body."""
     bodies, body_names = body_part.bodies, body_part.names
@@ -87,20 +91,26 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
                                         "only pairs of mesh bodies can be excluded; a "
                                         "sphere body touches every colliding body")
             bodybody_needed = True
+    zeta = tables.zeta
+    any_pair = lambda table, m1, m2: any(table[a, b] > 0 for a in m1 for b in m2)  # noqa: E731
+    friction_bristle = bb_needed and any_pair(mu, bristle_mats, bristle_mats)
+    friction_body = bbody_needed and any_pair(mu, bristle_mats, body_mats)
+    friction_body_body = bodybody_needed and any_pair(mu, body_mats, body_mats)
     needs = ContactNeeds(
         bristle_bristle=bb_needed, bristle_body=bbody_needed, body_body=bodybody_needed,
-        mesh_mesh=meshmesh_needed,
-        friction_bristle=bb_needed and any(mu[a, b] > 0 for a in bristle_mats
-                                           for b in bristle_mats),
-        friction_body=bbody_needed and any(mu[a, b] > 0 for a in bristle_mats
-                                           for b in body_mats),
-        friction_body_body=bodybody_needed and any(mu[a, b] > 0 for a in body_mats
-                                                   for b in body_mats),
+        mesh_mesh=meshmesh_needed, friction_bristle=friction_bristle,
+        friction_body=friction_body, friction_body_body=friction_body_body,
+        history_bristle=friction_bristle or (bb_needed
+                                             and any_pair(zeta, bristle_mats, bristle_mats)),
+        history_body=friction_body or (bbody_needed
+                                       and any_pair(zeta, bristle_mats, body_mats)),
+        history_body_body=friction_body_body or (bodybody_needed
+                                                 and any_pair(zeta, body_mats, body_mats)),
         node_partners=node_partners, bristle_materials=bristle_mats, body_materials=body_mats,
         spheres=spheres)
-    if needs.mesh_mesh and needs.friction_body_body:  # per (contact point, other body)
+    if needs.mesh_mesh and needs.history_body_body:  # per (contact point, other body)
         body_part.bodies = bodies._replace(ft_mesh=np.zeros((int(bodies.point_start[-1]), K,
-                                                             3)))
+                                                             HISTORY_COLUMNS)))
     return needs
 
 

@@ -16,7 +16,7 @@ from numba import njit, prange
 
 from .bodies import FIXED, KINEMATIC, push_body
 from .bonds import PARALLEL_MIN
-from .contact_law import (clear_history, contact_force, contact_with_history,
+from .contact_law import (HISTORY_COLUMNS, clear_history, contact_force, contact_with_history,
                           normal_stiffness, smoothstep)
 from .contacts import add_segment_force, segment_point_velocity
 from .jit import item_kernel
@@ -733,11 +733,23 @@ def scatter_bristle_body(nd, bn, bl, bd, stats):
     stats[4] = worst_c // BSLOT if worst_c >= 0 else -1
 
 
+@njit(cache=True, inline="always")
+def _let_go(ft, k1, k2):
+    """Forget the history of body pair (k1, k2) that does not touch; returns the energy it
+    releases (``contact_law.clear_history``: its column 3, 0 once forgotten)."""
+    released = ft[k1, k2, 3]
+    for c in range(HISTORY_COLUMNS):
+        ft[k1, k2, c] = 0.0
+    return released
+
+
 @njit(cache=True)
 def body_body_contacts(bd, tb, friction, stats, dt):
     """Sphere-sphere and sphere-mesh contacts between bodies (mesh-mesh pairs are not
-    computed). ``ft`` is (K, K, 3) history; ``scratch`` a (3,) array. ``stats`` gets
-    [count, stored, dissipated, max overlap ratio]."""
+    computed). ``ft`` is the (K, K, ``HISTORY_COLUMNS``) contact history
+    (``contact_law.contact_with_history``'s columns), per pair k1 < k2; a pair that lets go
+    books what it releases; ``scratch`` a (3,) array. ``stats`` gets [count, stored,
+    dissipated, max overlap ratio]."""
     bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
     sphere_r, watertight, body_material = bd.sphere_r, bd.watertight, bd.material
     collide, verts, tris, tnormal, pnormal = bd.collide, bd.verts, bd.tris, bd.tnormal, bd.pnormal
@@ -775,9 +787,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
                 d = math.sqrt(dx * dx + dy * dy + dz * dz)
                 ov = ra + sphere_r[b] - d
                 if ov <= 0.0:
-                    ft[k1, k2, 0] = 0.0
-                    ft[k1, k2, 1] = 0.0
-                    ft[k1, k2, 2] = 0.0
+                    e_dis += _let_go(ft, k1, k2)
                     continue
                 if d > 0.0:
                     nx, ny, nz = dx / d, dy / d, dz / d
@@ -793,6 +803,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
                                                          grid_origin, grid_cell, grid_dims,
                                                          grid_base, grid_start, grid_tris)
                 if tri < 0:
+                    e_dis += _let_go(ft, k1, k2)
                     continue
                 p0 = verts[tris[tri, 0]]
                 p1 = verts[tris[tri, 1]]
@@ -808,9 +819,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
                 else:
                     ov = ra - d
                     if ov <= 0.0:
-                        ft[k1, k2, 0] = 0.0
-                        ft[k1, k2, 1] = 0.0
-                        ft[k1, k2, 2] = 0.0
+                        e_dis += _let_go(ft, k1, k2)
                         continue
                     if d > 0.0:
                         nlx, nly, nlz = gx / d, gy / d, gz / d
@@ -841,13 +850,15 @@ def body_body_contacts(bd, tb, friction, stats, dt):
             m1 = body_material[a]
             m2 = body_material[b]
             kn = normal_stiffness(E[m1], ra, E[m2], rb)
-            Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(
+            Fx, Fy, Fz, f0, f1, f2, fd, dis, sto, rel = contact_force(
                 nx, ny, nz, ov, vx, vy, vz, kn, kt_table[m1, m2] * kn, mu_table[m1, m2],
                 zeta_table[m1, m2], meff, ft[k1, k2, 0], ft[k1, k2, 1], ft[k1, k2, 2],
-                friction, dt)
+                friction, dt, ft[k1, k2, 4])
             ft[k1, k2, 0] = f0
             ft[k1, k2, 1] = f1
             ft[k1, k2, 2] = f2
+            ft[k1, k2, 3] = rel
+            ft[k1, k2, 4] = fd
             push_body(bf, btq, a, rax, ray, raz, Fx, Fy, Fz)
             push_body(bf, btq, b, rbx, rby, rbz, -Fx, -Fy, -Fz)
             count += 1

@@ -48,7 +48,7 @@ from numba import njit
 
 from .bodies import FIXED, KINEMATIC, push_body
 from .body_contacts import closest_triangle, deep_closest, feature_normal
-from .contact_law import contact_force, normal_stiffness
+from .contact_law import HISTORY_COLUMNS, contact_force, normal_stiffness
 from .jit import item_kernel
 from .rotations import qrot, qrot_inv
 
@@ -187,12 +187,23 @@ def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, p
 HIT_SIZE = 11  # a touching point: index, depth, normal (3), arms from both centres (3 + 3)
 
 
+@njit(cache=True, inline="always")
+def _let_go_point(ft, i, t):
+    """Forget the history of point i against body t, which it does not touch; returns the
+    energy it releases (``contact_law.clear_history``: column 3, 0 once forgotten)."""
+    released = ft[i, t, 3]
+    for c in range(HISTORY_COLUMNS):
+        ft[i, t, c] = 0.0
+    return released
+
+
 @njit(cache=True)
 def mesh_mesh_contacts(bd, tb, friction, stats, dt):
     """Point-in-body contacts of every body pair with ``pair_kn[a, b] > 0`` (set by
     ``build``: both closed meshes that collide, at least one moving). ``points`` holds each
     body's contact points (body frame), body k's from ``point_start[k]``; ``ft`` is the
-    tangential history per (global point, other body), used only with ``friction``.
+    contact history per (global point, other body) (``contact_law.contact_with_history``'s
+    columns), with rows only where the pairs have friction or damping.
     The pair's n touching points are found first, then each point's damper is sized with the
     reduced mass shared among them, so that a patch of n points has the pair's damping ratio
     (with the whole mass per point, n dampers in parallel are sqrt(n) times too strong, and
@@ -218,12 +229,10 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
             dy = bpos[a, 1] - bpos[b, 1]
             dz = bpos[a, 2] - bpos[b, 2]
             if dx * dx + dy * dy + dz * dz >= (bound_r[a] + bound_r[b]) ** 2:
-                if friction:
+                if ft.shape[0] > 0:
                     for s, t in ((a, b), (b, a)):
                         for i in range(point_start[s], point_start[s + 1]):
-                            ft[i, t, 0] = 0.0
-                            ft[i, t, 1] = 0.0
-                            ft[i, t, 2] = 0.0
+                            stats[2] += _let_go_point(ft, i, t)
                 continue
             hits_a = np.empty((point_start[a + 1] - point_start[a], HIT_SIZE))
             hits_b = np.empty((point_start[b + 1] - point_start[b], HIT_SIZE))
@@ -231,11 +240,11 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
             na = _find_points_in_body(a, b, reach, bpos, bq, bound_r, point_start, points, verts,
                                       tris, tnormal, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
-                                      friction, scratch, hits_a)
+                                      scratch, hits_a, stats)
             nb = _find_points_in_body(b, a, reach, bpos, bq, bound_r, point_start, points, verts,
                                       tris, tnormal, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
-                                      friction, scratch, hits_b)
+                                      scratch, hits_b, stats)
             if na + nb == 0:
                 continue
             if motion[a] == FIXED or motion[a] == KINEMATIC:
@@ -258,10 +267,11 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
 @item_kernel
 def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, verts, tris,
                          tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
-                         grid_start, grid_tris, ft, friction, scratch, hits):
+                         grid_start, grid_tris, ft, scratch, hits, stats):
     """Body s's contact points (``contact_points``) inside body t, into ``hits`` rows
     [point, depth, outward normal (world), arm from s's centre, arm from t's centre];
-    points outside forget their tangential history. Only points within ``reach`` (the
+    points outside forget their contact history, booking what it releases into
+    ``stats[2]`` (the dissipated energy). Only points within ``reach`` (the
     pair's point length) of t's surface are looked at: the step loop stops once a point is
     half that deep (``MAX_OVERLAP_RATIO``), so none can be deeper, and a point near but
     outside costs a short search instead of one for the closest triangle at any distance
@@ -295,10 +305,8 @@ def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, ve
                     + (scratch[2] - (u * va[2] + v * vb[2] + w * vc[2])) * fnz) >= 0.0:
                 tri = -1
         if tri < 0 or d <= 0.0:
-            if friction:
-                ft[i, t, 0] = 0.0
-                ft[i, t, 1] = 0.0
-                ft[i, t, 2] = 0.0
+            if ft.shape[0] > 0:
+                stats[2] += _let_go_point(ft, i, t)
             continue
         va = verts[tris[tri, 0]]
         vb = verts[tris[tri, 1]]
@@ -343,21 +351,26 @@ def _apply_hits(s, t, n, hits, kn, kt, mu, zeta, meff, length, bv, bw, ft, frict
                                                              - bw[t, 0] * ez)
         vz = (bv[s, 2] + bw[s, 0] * rsy - bw[s, 1] * rsx) - (bv[t, 2] + bw[t, 0] * ey
                                                              - bw[t, 1] * ex)
-        if friction:
-            f0 = ft[i, t, 0]
-            f1 = ft[i, t, 1]
-            f2 = ft[i, t, 2]
-        else:
-            f0 = 0.0
-            f1 = 0.0
-            f2 = 0.0
-        Fx, Fy, Fz, f0, f1, f2, dis, sto = contact_force(nx, ny, nz, d, vx, vy, vz, kn, kt,
-                                                         mu, zeta, meff, f0, f1, f2,
-                                                         friction, dt)
-        if friction:
+        kept = ft.shape[0] > 0  # a history: friction or damping (build_contacts)
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        fd_prev = 0.0
+        if kept:
+            if friction:
+                f0 = ft[i, t, 0]
+                f1 = ft[i, t, 1]
+                f2 = ft[i, t, 2]
+            fd_prev = ft[i, t, 4]
+        Fx, Fy, Fz, f0, f1, f2, fd, dis, sto, rel = contact_force(
+            nx, ny, nz, d, vx, vy, vz, kn, kt, mu, zeta, meff, f0, f1, f2, friction, dt,
+            fd_prev)
+        if kept:
             ft[i, t, 0] = f0
             ft[i, t, 1] = f1
             ft[i, t, 2] = f2
+            ft[i, t, 3] = rel
+            ft[i, t, 4] = fd
         push_body(bf, btq, s, rsx, rsy, rsz, Fx, Fy, Fz)
         push_body(bf, btq, t, ex, ey, ez, -Fx, -Fy, -Fz)
         stats[0] += 1

@@ -277,7 +277,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
             bl.n[1] = m_new
             return OVERFLOW_BODY
     if fl.bristle_bristle:
-        if fl.friction_bristle:
+        if pl.ft.shape[0] > 0:  # a history (friction or damping)
             carry_history(pl.a, pl.b, pl.ft, pl.n[0], pl.a2, pl.b2, pl.ft2, n_new,
                           bn.i.shape[0], NSLOT)
             pl.ft[:n_new * NSLOT] = pl.ft2[:n_new * NSLOT]
@@ -285,7 +285,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
         pl.b[:n_new] = pl.b2[:n_new]
         pl.n[0] = n_new
     if fl.bristle_body:
-        if fl.friction_body:
+        if bl.ft.shape[0] > 0:
             carry_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
                           bd.pos.shape[0], BSLOT)
             bl.ft[:m_new * BSLOT] = bl.ft2[:m_new * BSLOT]

@@ -231,7 +231,8 @@ def _body_on_tapered_brush(body: dict, dt_factor: float, until):
     1.0 -> 0.5 mm, 20 mm long, 2.5 mm pitch) hit by the free PLA ``body`` (a scene body
     without its material), run until ``until`` (s, or a function of the automatic dt) at
     ``dt_factor`` x the automatic dt. Returns
-    (relative total energy series, dt, the body's final velocity)."""
+    (relative total energy series, dt, the body's final velocity, per frame whether the body
+    touches a bristle)."""
     scene = engine.parse_scene({
         "materials": {"silicone": SILICONE,
                       "pla": {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36,
@@ -249,15 +250,15 @@ def _body_on_tapered_brush(body: dict, dt_factor: float, until):
     result = engine.run(system, until=until(auto_dt) if callable(until) else until)
     with result.open() as res:
         total = res.series("energy/total")
-        touched = res.series("contacts/bristle_body").max()
-    assert touched > 0, f"the {body['name']} must hit the brush"
-    return total / total[0] - 1.0, system.dt, system.bodies.v[0].copy()
+        touching = res.series("contacts/bristle_body") > 0
+    assert touching.any(), f"the {body['name']} must hit the brush"
+    return total / total[0] - 1.0, system.dt, system.bodies.v[0].copy(), touching
 
 
-def _sphere_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, float, np.ndarray]:
+def _sphere_on_tapered_brush(dt_factor: float):
     """Issue 11's scene: the brush hit off-centre by a free PLA sphere (r 6 mm, 0.5 m/s), for
     1e5 automatic steps' worth of time at ``dt_factor`` x the automatic dt. Returns (relative
-    total energy series, dt, the sphere's final velocity)."""
+    total energy series, dt, the sphere's final velocity, per frame whether it touches)."""
     return _body_on_tapered_brush(
         {"name": "ball", "shape": {"type": "sphere", "radius": 0.006},
          "mass_properties": {"density": 1250.0},
@@ -272,20 +273,37 @@ def test_free_sphere_on_tapered_brush_conserves_energy():
     fade, the radius and k_n proportional to r). Bug caught: applying only w k ov n gained
     +3.9 % (up to +7.0 %) over 1e5 steps, not less at dt/2. Tolerances: 0.5 % is the issue's
     bound over 1e5 steps; a conservative leapfrog's energy error is O(dt^2), so halving dt must
-    shrink the excursion at least by half (a non-conservative force would not shrink it)."""
-    rel, dt, v_ball = _sphere_on_tapered_brush(1.0)
-    rel_half, _, _ = _sphere_on_tapered_brush(0.5)
+    shrink the excursion while the sphere touches at least by half (a non-conservative force
+    would not shrink it).
+
+    Why the convergence is checked while the sphere touches, not over the whole run: after
+    the sphere leaves (75 ms), the brush rings for the rest of the 1.1 s with bristle-bristle
+    collisions, and the whole run's excursion is the leapfrog's O(dt^2) band plus a random
+    walk of the small O(dt^2) energy steps of those collisions, whose sum depends on which
+    collisions a chaotic run happens to have. Measured (10 kHz frames): the band within 20 ms
+    windows 5.39e-4, 1.70e-4, 3.45e-5 at dt, dt/2, dt/4 and the rms step of its 20 ms mean
+    1.08e-4, 2.02e-5, 6.53e-6 (both second order), but that mean wandered within +-2.5e-4
+    at dt, drifted to -2.26e-4 at dt/2 and stayed within +-4.4e-5 at dt/4, so the whole
+    run's excursion (the test's 2 kHz frames) went 5.38e-4, 2.89e-4, 5.79e-5 (ratio 0.54 at
+    dt/2, 0.20 from dt/2 to dt/4); until the sphere has let go: 5.38e-4, 1.63e-4, 3.79e-5
+    (0.30, 0.23). So the drop from 0.25 (9.28e-4 -> 2.34e-4 before issue 22's merge) to
+    0.54 is this walk, not a lost order: the forces from t = 0 and the cap on the total
+    normal force cannot change this scene (nothing touches at t = 0 and the bristles are
+    straight, no friction, no damping), while the same merge gave the sphere its exact mass
+    (3c1da2e, +0.9 %), another run with other collisions (the old engine not re-run)."""
+    rel, dt, v_ball, touching = _sphere_on_tapered_brush(1.0)
+    rel_half, _, _, touching_half = _sphere_on_tapered_brush(0.5)
     excursion = float(np.abs(rel).max())
-    excursion_half = float(np.abs(rel_half).max())
+    during = float(np.abs(rel[:np.nonzero(touching)[0][-1] + 2]).max())
+    during_half = float(np.abs(rel_half[:np.nonzero(touching_half)[0][-1] + 2]).max())
     FIGURES["sphere on tapered brush, 1e5 steps: max |dE|/E"] = excursion
-    FIGURES["sphere on tapered brush, dt/2: max |dE|/E"] = excursion_half
+    FIGURES["sphere on tapered brush, while touching: max |dE|/E"] = during
+    FIGURES["sphere on tapered brush, while touching, dt/2: max |dE|/E"] = during_half
     assert v_ball[2] > 0.0, "the sphere must bounce back"
     assert excursion < 0.005, f"energy excursion {excursion:.3%} at dt {dt:.3g} s"
-    # 0.6: a non-conservative force does not shrink the excursion at all (ratio ~1). Measured
-    # 9.28e-4 -> 2.34e-4 (0.25, second order) before the forces were applied from t = 0 and
-    # the cap moved to the total normal force; 5.38e-4 -> 2.89e-4 (0.54) after: smaller at
-    # dt but no longer second order, an open question (issue 22's closing note)
-    assert excursion_half < 0.6 * excursion, (excursion, excursion_half)
+    # 0.5: second order gives 0.25 (measured 0.30, docstring); a non-conservative force does
+    # not shrink the excursion at all (ratio ~1)
+    assert during_half < 0.5 * during, (during, during_half)
 
 
 def _box_edge_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, np.ndarray]:
@@ -295,7 +313,7 @@ def _box_edge_on_tapered_brush(dt_factor: float) -> tuple[np.ndarray, np.ndarray
     edge: the bristles' segments cross it between their nodes. Returns (relative total
     energy series, the box's final velocity)."""
     half = math.radians(45.0) / 2
-    rel, _dt, v = _body_on_tapered_brush(
+    rel, _dt, v, _touching = _body_on_tapered_brush(
         {"name": "box", "shape": {"type": "box", "size": [0.02, 0.012, 0.012]},
          "mass_properties": {"density": 1250.0},
          "pose": {"position": [0.0, 0.0009, 0.0295],

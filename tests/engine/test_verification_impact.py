@@ -155,7 +155,8 @@ def test_law_caps_friction_by_the_total_normal_force(friction):
         ft = rng.normal(scale=5.0, size=3)
         overlap = rng.uniform(0.0, 1e-4)
         Fx, Fy, Fz, *_ = contact_force(n[0], n[1], n[2], overlap, v[0], v[1], v[2], kn, kt, mu,
-                                       zeta, meff, ft[0], ft[1], ft[2], friction, dt)
+                                       zeta, meff, ft[0], ft[1], ft[2], friction, dt,
+                                       0.0)
         F = np.array([Fx, Fy, Fz])
         f_n = F @ n
         f_t = np.linalg.norm(F - f_n * n)
