@@ -138,3 +138,20 @@ def study_eta(info, now: Optional[float] = None) -> Optional[float]:
         return None
     elapsed = (time.time() if now is None else now) - float(info.started)
     return max(elapsed * (1.0 - p) / p, 0.0)
+
+
+LARGE_HEIGHT = 600        # px of one chart in the pop-out window
+
+
+def large_layout(fig):
+    """``fig`` laid out for the pop-out window (issue 29, item 7): taller, larger type,
+    the legend at the right of the plot area (clear of both axis titles). Returns it."""
+    fig.update_layout(height=LARGE_HEIGHT, font=dict(size=14),
+                      title=dict(font=dict(size=17)),
+                      margin=dict(l=80, r=30, t=60, b=70),
+                      legend=dict(orientation="v", x=1.02, y=1.0, xanchor="left",
+                                  yanchor="top", font=dict(size=13)))
+    if "yaxis2" in fig.layout and fig.layout.yaxis2.overlaying:
+        # (a second y axis at the right: the legend goes right of its title)
+        fig.update_layout(legend=dict(x=1.12), margin=dict(r=30))
+    return fig
