@@ -56,7 +56,8 @@ def _label(field: dict) -> str:
     name, unit = field["name"], field.get("unit")
     if unit:
         suffix = "_" + unit.replace("/", "_per_")
-        base = name[:-len(suffix)] if name.endswith(suffix) else name
+        # (case aside: stress_limit_mpa with unit MPa is "stress limit [MPa]")
+        base = name[:-len(suffix)] if name.lower().endswith(suffix.lower()) else name
         return f"{base.replace('_', ' ')} [{unit}]"
     return name.replace("_", " ")
 
@@ -88,6 +89,13 @@ def form_spec(study: str) -> list[dict]:
             f["widget"] = "text"
         out.append(f)
     return out
+
+
+def fine_step(*values: float) -> float:
+    """A number box's step (and so its decimals, in viser): a thousandth of the largest
+    value's decade, so that values typed to three significant digits arrive as typed."""
+    top = max((abs(v) for v in values if v and math.isfinite(v)), default=1.0)
+    return 10.0 ** (math.floor(math.log10(top)) - 3)
 
 
 def _trial_number(label: str) -> Optional[int]:
@@ -332,7 +340,10 @@ class StudiesTab:
             bounds = {k: f[b] for k, b in (("min", "ge"), ("max", "le")) if b in f}
             if f["kind"] == "int":
                 return gui.add_number(label, int(initial), step=1, hint=hint, **bounds)
-            return gui.add_number(label, float(initial), hint=hint, **bounds)
+            # (viser derives the box's decimals from its step, and its step from the first
+            # value: 0.4 s took one decimal, so a typed 0.02 became 0.0)
+            return gui.add_number(label, float(initial), hint=hint,
+                                  step=fine_step(float(initial)), **bounds)
         return gui.add_text(label, initial, hint=hint)
 
     def _show_form(self) -> None:
@@ -401,8 +412,7 @@ class StudiesTab:
             folder = gui.add_folder(f"{f.title}: {f.value:g} now")
         with folder:
             unit = f" [{f.unit}]" if f.unit else ""
-            step = 1 if f.integer else None
-            kw = {} if step is None else {"step": step}
+            kw = {"step": 1 if f.integer else fine_step(low, high, f.value)}
             nb_low = gui.add_number(f"{f.label} from{unit}", low, **kw)
             nb_high = gui.add_number(f"{f.label} to{unit}", high, **kw)
             cb_log = gui.add_checkbox(f"{f.label} on a log scale", log,
