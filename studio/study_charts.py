@@ -30,11 +30,13 @@ def _layout(fig, title: str, x: str, y: str, legend: bool = True) -> None:
     # (the title sits above the plot area, clear of plotly's toolbar at the top right)
     fig.update_layout(title=dict(text=title, font=dict(size=13), x=0.02, y=0.97),
                       xaxis=dict(title=x), yaxis=dict(title=y), height=HEIGHT,
-                      margin=dict(l=55, r=10, t=55, b=95 if legend else 45),
+                      margin=dict(l=55, r=10, t=55, b=115 if legend else 45),
                       showlegend=legend,
                       # below the x-axis title, not over it (issue 29, item 6): anchored by
-                      # its top, under the title's band
-                      legend=dict(orientation="h", x=0.0, y=-0.22, yanchor="top",
+                      # its top, under the title's band (a fraction of the plot area's
+                      # height: 0.3 of the side panel's ~200 px is 60 px, past the tick
+                      # labels and the title)
+                      legend=dict(orientation="h", x=0.0, y=-0.3, yanchor="top",
                                   font=dict(size=10)),
                       hovermode="closest")
 

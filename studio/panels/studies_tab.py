@@ -21,7 +21,7 @@ from fnmatch import fnmatch
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .common import (NO_JOBS, PLOT_ASPECT, _fmt_s, _one_line, follow_job, job_of,
+from .common import (NO_JOBS, _fmt_s, _one_line, follow_job, job_of,
                             set_job_choices)
 from ..study_charts import study_charts, study_eta
 
@@ -43,7 +43,12 @@ SEARCH = "optimise"
 #: the option the variable rows fill (the text field is left out of the form)
 VARIABLES = "variables"
 SEARCH_POLL_S = 1.0   # s between reads of a running search's journal
-POPOUT_WINDOW = (980, 760)  # px: the study charts' window, floating over the view
+POPOUT_WINDOW = (900, 680)  # px: the study charts' window, floating over the view
+#: viser draws a plot ``aspect`` times as TALL as the panel is wide (height = width x
+#: aspect): the study charts had PLOT_ASPECT's 0.62, 330 x 205 px less their margins and
+#: legend, a plot area of ~165 x 60 px (issue 29, item 7)
+STUDY_CHART_ASPECT = 1.1    # in the side panel: ~330 x 360 px, a plot area ~265 x 200
+POPOUT_ASPECT = 0.6         # in the pop-out window: ~880 x 530 px
 NO_TRIALS = "(no trial yet)"
 
 
@@ -287,6 +292,11 @@ class StudiesTab:
                 self.fields[study] = {f["name"]: self._widget(f, presets)
                                       for f in form_spec(study)}
             self.fields[SEARCH][VARIABLES].visible = False
+            # the search starts on the design being edited (its variables are picked from
+            # it), not on the study's own default rig design
+            preset = self.fields[SEARCH].get("preset")
+            if preset is not None and CURRENT_DESIGN in preset.options:
+                preset.value = CURRENT_DESIGN
             self._build_variables_gui(gui)
             self.tx_extra = gui.add_text("other options (JSON)", "")
             self.bt_start = gui.add_button("Start study", color="green")
@@ -561,7 +571,7 @@ class StudiesTab:
                 if k < len(self.search_plots):
                     self.search_plots[k].figure = fig
                 else:
-                    self.search_plots.append(self.gui.add_plotly(fig, aspect=PLOT_ASPECT))
+                    self.search_plots.append(self.gui.add_plotly(fig, aspect=STUDY_CHART_ASPECT))
         for h in self.search_plots[len(figs):]:
             h.remove()
         self.search_plots = self.search_plots[:len(figs)]
@@ -653,7 +663,7 @@ class StudiesTab:
             self.popout_plots.append(close)
             for title, fig in figs:
                 big = large_layout(_copy.deepcopy(fig))
-                self.popout_plots.append(gui.add_plotly(big, aspect=1.5))
+                self.popout_plots.append(gui.add_plotly(big, aspect=POPOUT_ASPECT))
 
     def close_popout(self) -> None:
         if self.popout is not None:
@@ -734,7 +744,7 @@ class StudiesTab:
                 self.md_table.visible = True
                 with self.results_folder:
                     fig = convergence_figure(table)
-                    self.plot = self.gui.add_plotly(fig, aspect=PLOT_ASPECT)
+                    self.plot = self.gui.add_plotly(fig, aspect=STUDY_CHART_ASPECT)
                     self.figures.append(("convergence", fig))
             except (OSError, ValueError, TypeError, KeyError) as exc:
                 self.md_table.content = f"cannot read the convergence table: {exc}"
@@ -744,7 +754,7 @@ class StudiesTab:
                 if isinstance(fig, str):
                     self.charts.append(self.gui.add_markdown(self.esc(fig)))
                 else:
-                    self.charts.append(self.gui.add_plotly(fig, aspect=PLOT_ASPECT))
+                    self.charts.append(self.gui.add_plotly(fig, aspect=STUDY_CHART_ASPECT))
                     self.figures.append((name, fig))
         # the PNGs the charts replace are left to the file list; the others are shown
         charted = CHARTED_PNGS.get(info.study or "", ()) if (

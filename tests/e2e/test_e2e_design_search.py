@@ -13,6 +13,21 @@ import pytest
 from conftest import click, open_preset, wait_text
 
 KEY_DELAY_MS = 100  # a person typing, each key its own update
+DOC_VIEWPORT = {"width": 1400, "height": 900}  # the docs' screenshots (docs/studio.md)
+
+
+def _doc_shot(page, shot, name: str, scroll_to=None) -> None:
+    """A screenshot for the docs: a wider page, the software-WebGL notice hidden, the
+    pointer off the panel (no tooltip), the panel scrolled to ``scroll_to``."""
+    page.set_viewport_size(DOC_VIEWPORT)
+    page.add_style_tag(content=".mantine-Notification-root { display: none !important; }")
+    page.mouse.move(1390, 890)
+    if scroll_to is not None:
+        page.get_by_text(scroll_to, exact=True).first.evaluate(
+            "e => e.scrollIntoView({block: 'start'})")
+    page.wait_for_timeout(2500)
+    shot(page, name)
+    page.set_viewport_size({"width": 1100, "height": 800})
 
 
 def _select(page, label: str, value: str) -> None:
@@ -153,6 +168,7 @@ def test_e2e_search_progress_chart_popout_and_trial_design(studio, page, shot,
         .flatMap(p => (p.data || []).map(d => d.name))""")
     assert "best so far" in traces
     shot(page, "search-finished")
+    _doc_shot(page, shot, "docs-search", scroll_to="Design search")
     # pop the charts out: large, legend clear of the axis titles
     click(page, "Pop out charts")
     st = studio.wait_state(lambda s: s["studies"]["popout"]["open"], what="pop-out")
@@ -174,6 +190,7 @@ def test_e2e_search_progress_chart_popout_and_trial_design(studio, page, shot,
             if L and A:  # no overlap of the legend's box and an axis title's box
                 assert L[2] <= A[0] or A[2] <= L[0] or L[3] <= A[1] or A[3] <= L[1], b
     shot(page, "search-popout")
+    _doc_shot(page, shot, "docs-popout")
     click(page, "Close charts window")
     studio.wait_state(lambda s: not s["studies"]["popout"]["open"], what="pop-out closed")
     # load the best trial's design into the design view
