@@ -286,6 +286,8 @@ def search_figures(prog: SearchProgress, *, height: int = 420, large: bool = Fal
         fig.add_scatter(x=[p[0] for p in bsf], y=[p[1] for p in bsf], mode="lines",
                         line=dict(shape="hv", color="#2ca02c"), name="best so far")
     _layout(fig, f"{name} per trial (minimised)", "trial", name, height, large)
+    n = max((t.number for t in done), default=0) + 1
+    fig.update_xaxes(tick0=0, dtick=max(1, math.ceil(n / 8)))  # whole trial numbers
     out = [("objective per trial", fig)]
     if len(prog.objectives) >= 2 and done:
         n0, n1 = prog.objectives[:2]

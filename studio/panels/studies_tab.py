@@ -579,9 +579,8 @@ class StudiesTab:
         done = [] if prog is None else sorted(
             prog.complete, key=lambda t: (not t.feasible, t.values[0]))
         labels = tuple(trial_label(t, prog.objectives) for t in done) or (NO_TRIALS,)
-        keep = self.dd_trial.value
         self.dd_trial.options = labels
-        self.dd_trial.value = keep if keep in labels else labels[0]
+        self.dd_trial.value = labels[0]  # (the best so far, as a trial finishes)
         self.dd_trial.disabled = self.bt_load_trial.disabled = not done
         self.bt_load_best.disabled = "best.json" not in (info.files or [])
         self.bt_popout.disabled = not self._all_figures()
@@ -771,6 +770,8 @@ class StudiesTab:
         self.bt_popout.disabled = not self._all_figures()
         if self.popout is not None and self.popout.visible:
             self.pop_out()
+        # (a search draws in its own folder: no empty Plots folder above it)
+        self.results_folder.visible = bool(self.charts or self.images or self.plot)
         self.shown_status = info.status  # (last: what a state reader sees is all drawn)
 
     def _on_download(self, event) -> None:

@@ -121,3 +121,21 @@ def test_trial_scene_is_the_start_design_with_the_trial_values(tmp_path):
     # the rest of the design is the design's (not the search's spin rig)
     assert out["bodies"] == json.loads(json.dumps(out["bodies"]))
     assert [b["name"] for b in out["bodies"]] == [b["name"] for b in scene["bodies"]]
+
+
+def test_form_sends_a_default_on_flag_unticked():
+    """optimise's refine is on by default: unticked in the form it must reach the study as
+    False (the form sent only ticked flags, so the winner was always re-run)."""
+    from studio.panels.studies_tab import form_options
+
+    assert form_options("optimise", {"refine": False}) == {"refine": False}
+    assert form_options("optimise", {"refine": True}) == {}
+
+
+def test_number_boxes_keep_three_significant_digits():
+    """viser takes a box's decimals from its step: 0.4 s gave one decimal (0.02 -> 0.0)."""
+    from studio.panels.studies_tab import fine_step
+
+    assert fine_step(0.4) == pytest.approx(1e-4)
+    assert fine_step(0.5, 2.0) == pytest.approx(1e-3)
+    assert fine_step(0.0) == pytest.approx(1e-3)
