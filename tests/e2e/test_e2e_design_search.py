@@ -83,6 +83,7 @@ def _add_variable(page, studio, title: str, path: str) -> list:
 def test_e2e_search_variables_from_the_design(studio, page, shot):
     """Variables come from the design being edited, bounds around its values; a bound
     typed wrong is refused on the page and nothing is queued (quick: no run)."""
+    click(page, "Design", role="tab")
     open_preset(studio, "spin_cube_40", page)
     _to_optimise(page, studio)
     st = _studies(studio)
@@ -116,6 +117,7 @@ def test_e2e_search_variables_from_the_design(studio, page, shot):
 @pytest.mark.slow  # three trials of a 2-node spin rig: ~1 min warm, minutes cold or busy
 def test_e2e_search_progress_chart_popout_and_trial_design(studio, page, shot,
                                                            artifacts_dir):
+    click(page, "Design", role="tab")
     open_preset(studio, "spin_cube_40", page)
     _to_optimise(page, studio)
     st = _studies(studio)
@@ -130,9 +132,8 @@ def test_e2e_search_progress_chart_popout_and_trial_design(studio, page, shot,
     page.wait_for_timeout(800)
     t0 = time.monotonic()
     click(page, "Start study")
-    st = studio.wait_state(lambda s: s["studies"]["active"] is not None
-                           or s["studies"]["error"], timeout=20, what="a started search")
-    assert st["studies"]["error"] is None, st["studies"]["error"]
+    st = studio.wait_state(lambda s: s["studies"]["active"] is not None, timeout=20,
+                           what="a started search")
     job_id = st["studies"]["active"]
     job = studio.get(f"/api/studies/{job_id}")
     assert job["study"] == "optimise" and job["options"]["trials"] == 3
