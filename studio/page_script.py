@@ -37,8 +37,20 @@ PAGE_SCRIPT = r"""
     if (!thumb || thumb.getAttribute('role') !== 'slider') return;
     event.preventDefault();
     const key = event.key === 'PageUp' ? 'ArrowRight' : 'ArrowLeft';
-    for (let i = 0; i < 10; i++)
+    // one arrow at a time, each after the slider took the last: ten dispatched at once all
+    // read the same value, and the slider moved one step (seen in the browser test)
+    const press = left => {
+      if (left <= 0) return;
+      const before = thumb.getAttribute('aria-valuenow');
       thumb.dispatchEvent(new KeyboardEvent('keydown', {key, code: key, bubbles: true}));
+      let tries = 0;
+      const wait = () => {
+        if (thumb.getAttribute('aria-valuenow') !== before || ++tries > 20) press(left - 1);
+        else setTimeout(wait, 15);
+      };
+      setTimeout(wait, 0);
+    };
+    press(10);
   }, true);
 })();
 """
