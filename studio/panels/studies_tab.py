@@ -471,10 +471,16 @@ class StudiesTab:
         if study == SEARCH:
             values.pop(VARIABLES, None)
             if design is not None and self.design_scene is not None:
-                n = len(self.design_scene().get("brushes") or [])
+                scene = self.design_scene()
+                n = len(scene.get("brushes") or [])
                 if n != 1:
                     raise FormError(f"the design search varies one brush; this design has "
                                     f"{n} (remove the others, or pick a preset)")
+                bodies = [b.get("name") for b in scene.get("bodies") or []]
+                if "cube" not in bodies and len(bodies) != 1:
+                    raise FormError("the design search's targets take the place of the "
+                                    "design's body: it needs one body (or one named "
+                                    f"'cube'); this design has {len(bodies)}")
         options = form_options(study, values, self.tx_extra.value)
         if study == SEARCH and self.var_rows and VARIABLES not in options:
             options[VARIABLES] = self.variables()
@@ -685,7 +691,12 @@ class StudiesTab:
             set_job_choices(self.dd_list, studies, job_of(self.dd_list.value))
         job = self.active
         if self.dd_study.value == SEARCH and job is None:
-            self._refresh_field_choices()
+            import time as _time
+
+            now = _time.monotonic()
+            if now - getattr(self, "_fields_read", 0.0) > SEARCH_POLL_S:
+                self._fields_read = now
+                self._refresh_field_choices()  # (a brush or body added since)
         if job is None:
             return
         if self.active_study == SEARCH:

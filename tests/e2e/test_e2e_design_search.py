@@ -112,6 +112,16 @@ def test_e2e_search_variables_from_the_design(studio, page, shot):
     click(page, "Remove root radius")
     studio.wait_state(lambda s: not s["studies"]["variables"], what="row removed")
     wait_text(page, "None picked")
+    # a design of two brushes is refused before anything is queued (the search varies one)
+    click(page, "Design", role="tab")
+    open_preset(studio, "momentum_two_brushes", page)
+    click(page, "Studies", role="tab")
+    wait_text(page, "Start study")
+    click(page, "Start study")
+    st = studio.wait_state(lambda s: "one brush" in (s["studies"]["error"] or ""),
+                           timeout=10, what="two brushes refused")["studies"]
+    assert st["active"] is None and len(studio.get("/api/studies")) == n_before
+    wait_text(page, "varies one brush")
 
 
 @pytest.mark.slow  # three trials of a 2-node spin rig: ~1 min warm, minutes cold or busy
