@@ -497,11 +497,14 @@ class StudiesTab:
             job_id = self.jobs.submit_study(study, options, name=name)
         except (FormError, StudyOptionError) as exc:
             self.last_error = str(exc)
-            self.md_status.content = f"**Refused:** {self.esc(str(exc))}"
+            # red on the panel, as the Run tab's refusals (issue 29, item 8)
+            self.md_status.content = (f"<span style='color:#d00'><b>Refused:</b> "
+                                      f"{self.esc(str(exc))}</span>")
             return None
         except Exception as exc:  # keep the studio alive; say why
             self.last_error = f"{type(exc).__name__}: {exc}"
-            self.md_status.content = f"Could not start: {self.esc(self.last_error)}"
+            self.md_status.content = (f"<span style='color:#d00'>Could not start: "
+                                      f"{self.esc(self.last_error)}</span>")
             return None
         self.last_error = None
         self.active, self.active_study = job_id, study

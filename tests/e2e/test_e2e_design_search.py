@@ -106,6 +106,12 @@ def test_e2e_search_variables_from_the_design(studio, page, shot):
                            what="a refusal")["studies"]
     assert "below the high bound" in st["error"] and st["active"] is None
     wait_text(page, "below the high bound")
+    # the refusal in red on the panel (it was black text under the green Start button)
+    color = page.evaluate("""() => { const el = Array.from(document.querySelectorAll('span'))
+        .find(e => e.innerText.includes('below the high bound'));
+        return getComputedStyle(el).color; }""")
+    r, g, b = (int(c) for c in color[color.index("(") + 1:color.index(")")].split(",")[:3])
+    assert r > 180 and g < 80 and b < 80, color
     assert len(studio.get("/api/studies")) == n_before
     shot(page, "search-variables-refused")
     # remove it again: the form goes back to the study's default variable
