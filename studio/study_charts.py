@@ -30,11 +30,13 @@ def _layout(fig, title: str, x: str, y: str, legend: bool = True) -> None:
     # (the title sits above the plot area, clear of plotly's toolbar at the top right)
     fig.update_layout(title=dict(text=title, font=dict(size=13), x=0.02, y=0.97),
                       xaxis=dict(title=x), yaxis=dict(title=y), height=HEIGHT,
-                      margin=dict(l=55, r=10, t=55, b=95 if legend else 45),
+                      margin=dict(l=55, r=10, t=55, b=115 if legend else 45),
                       showlegend=legend,
                       # below the x-axis title, not over it (issue 29, item 6): anchored by
-                      # its top, under the title's band
-                      legend=dict(orientation="h", x=0.0, y=-0.22, yanchor="top",
+                      # its top, under the title's band (a fraction of the plot area's
+                      # height: 0.3 of the side panel's ~200 px is 60 px, past the tick
+                      # labels and the title)
+                      legend=dict(orientation="h", x=0.0, y=-0.3, yanchor="top",
                                   font=dict(size=10)),
                       hovermode="closest")
 
@@ -138,3 +140,20 @@ def study_eta(info, now: Optional[float] = None) -> Optional[float]:
         return None
     elapsed = (time.time() if now is None else now) - float(info.started)
     return max(elapsed * (1.0 - p) / p, 0.0)
+
+
+LARGE_HEIGHT = 600        # px of one chart in the pop-out window
+
+
+def large_layout(fig):
+    """``fig`` laid out for the pop-out window (issue 29, item 7): taller, larger type,
+    the legend at the right of the plot area (clear of both axis titles). Returns it."""
+    fig.update_layout(height=LARGE_HEIGHT, font=dict(size=14),
+                      title=dict(font=dict(size=17)),
+                      margin=dict(l=80, r=30, t=60, b=70),
+                      legend=dict(orientation="v", x=1.02, y=1.0, xanchor="left",
+                                  yanchor="top", font=dict(size=13)))
+    if "yaxis2" in fig.layout and fig.layout.yaxis2.overlaying:
+        # (a second y axis at the right: the legend goes right of its title)
+        fig.update_layout(legend=dict(x=1.12), margin=dict(r=30))
+    return fig

@@ -138,7 +138,10 @@ class RunPanel:
         """Start, or first ask when the estimate is long (``run_cost.CONFIRM_ABOVE_S``)."""
         self._update_run_cost()
         rc = self.run_cost
-        if rc is None or not rc.needs_confirmation or event.client is None:
+        with self.lock:
+            refused = any(o.kind != "bristle-bristle" for o in self.overlaps)
+        # (a design Start refuses is refused at once: no "long run?" question first)
+        if rc is None or not rc.needs_confirmation or event.client is None or refused:
             self.start_run()
             return
         with event.client.gui.add_modal("Start a long run?") as modal:

@@ -22,13 +22,35 @@ class StudiesPanel:
         design_id = share(text) if share is not None else None
         return (None if design_id is None else DESIGN_PREFIX + design_id), name
 
+    def study_design_scene(self) -> dict:
+        """The session's design as a scene dict (a copy): the design search's fields."""
+        import copy
+
+        with self.lock:
+            return copy.deepcopy(self.scene)
+
+    def load_study_design(self, scene: dict, label: str) -> Optional[str]:
+        """Put a scene a study made (a search trial's design) into the design view, as a
+        loaded file is; returns the engine's refusal, if any."""
+        import engine
+
+        try:
+            parsed = engine.parse_scene(scene)
+        except engine.SceneError as exc:
+            return "; ".join(str(p) for p in exc.problems)
+        self.set_design(parsed)
+        self.mark_loaded(f"{label} was loaded")
+        return None
+
     def _build_studies_gui(self, gui) -> None:
         self.studies = None
         if self.jobs is not None:
             from .studies_tab import StudiesTab
 
             self.studies = StudiesTab(gui, self.tab_studies, self.jobs, preset_names(),
-                                      _md_escape, current_design=self.study_design)
+                                      _md_escape, current_design=self.study_design,
+                                      design_scene=self.study_design_scene,
+                                      load_design=self.load_study_design)
         else:
             with self.tab_studies:
                 gui.add_markdown("No job pool: studies need the studio's workers.")

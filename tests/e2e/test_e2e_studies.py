@@ -110,6 +110,66 @@ def test_e2e_wedge_study_from_the_tab_shows_its_plot(studio, page, shot, artifac
     assert saved.stat().st_size > 0
 
 
+#: each plotly chart of the page: its size, and the boxes of its legend, axis titles and
+#: plot area (page pixels: left, top, right, bottom)
+_PLOT_BOXES = """() => Array.from(document.querySelectorAll('.js-plotly-plot'))
+    .filter(p => p.getBoundingClientRect().width > 0)
+    .map(p => { const r = p.getBoundingClientRect();
+      const box = s => { const e = p.querySelector(s);
+        if (!e) return null; const b = e.getBoundingClientRect();
+        return [b.left, b.top, b.right, b.bottom]; };
+      return {w: r.width, h: r.height, legend: box('.legend'), x: box('.xtitle'),
+              y: box('.ytitle'), area: box('.nsewdrag')}; })"""
+
+
+def _readable(b: dict, min_w: float, min_h: float) -> None:
+    area = b["area"]
+    assert area[2] - area[0] > min_w and area[3] - area[1] > min_h, b
+    for axis in ("x", "y"):
+        L, A = b["legend"], b[axis]
+        if L and A:  # the legend's box and an axis title's box do not overlap
+            assert L[2] <= A[0] or A[2] <= L[0] or L[3] <= A[1] or A[3] <= L[1], (axis, b)
+
+
+def test_e2e_study_chart_pops_out_readable(studio, page, shot):
+    """Issue 29 item 7: a study chart in the 350 px side panel had a plot area of about
+    165 x 60 px and its legend over the axis title; *Pop out charts* shows it large, the
+    legend clear of both axis titles, and *Close charts window* puts it away."""
+    click(page, "Studies", role="tab")
+    wait_text(page, "Start study")
+    st = studio.state()["studies"]
+    if not st["charts"]:  # (run alone: a tiny wedge study first, ~15 s warm)
+        _typed(studio, page, "other options (JSON)",
+               '{"preset": "wedge_60", "depth_mm": 2, "nodes": 3}', lambda s: True, "typed")
+        page.wait_for_timeout(500)
+        click(page, "Start study")
+        st = _wait_studies(studio, lambda s: s["shown_status"] is not None and s["charts"] > 0,
+                           400, "the study's chart shown")
+    assert not st["popout"]["open"]
+    page.locator(".js-plotly-plot").first.wait_for(timeout=30_000)
+    small = page.evaluate(_PLOT_BOXES)
+    # in the side panel too, a plot area taller than the old 60 px, legend off the titles
+    _readable(small[0], min_w=200, min_h=150)
+    click(page, "Pop out charts")
+    st = _wait_studies(studio, lambda s: s["popout"]["open"] and s["popout"]["charts"] > 0,
+                       20, "the charts window")
+    assert "force_depth.csv" in st["popout"]["titles"]
+    wait_text(page, "Close charts window")
+    deadline = time.monotonic() + 20
+    while True:
+        plots = page.evaluate(_PLOT_BOXES)
+        big = [p for p in plots if p["w"] > 700]
+        if big or time.monotonic() > deadline:
+            break
+        time.sleep(0.5)
+    assert big, (small, plots)
+    # a plot area a reader can read (the side panel's was ~165 x 60 px)
+    _readable(big[0], min_w=500, min_h=300)
+    shot(page, "study-chart-popped-out")
+    click(page, "Close charts window")
+    _wait_studies(studio, lambda s: not s["popout"]["open"], 20, "the window closed")
+
+
 @pytest.mark.slow  # three rod runs: ~35 s on an idle 2-core machine, minutes when busy
 def test_e2e_convergence_study_shows_table_and_plot(studio, page, shot):
     click(page, "Studies", role="tab")
