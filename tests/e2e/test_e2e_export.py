@@ -15,7 +15,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from conftest import click, run_to_playback, wait_text
+from conftest import click, run_to_playback, upload, wait_text
 
 
 def _upload_ready(page) -> None:
@@ -175,8 +175,6 @@ def test_e2e_compare_two_runs_and_a_measured_curve(studio, page, shot, tmp_path,
     comparison, plus a measured curve: the overlay labels each run by what differs, and the
     table's peak root force is the run's own (read from its HDF5 file through the API)."""
     import json
-
-    from conftest import upload
 
     jobs = []
     for rows in (2, 3):

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from conftest import click, open_preset, run_to_playback, set_field, wait_text
+from conftest import click, open_preset, run_to_playback, upload, wait_text
 
 KEY_DELAY_MS = 100
 
@@ -86,7 +86,6 @@ def test_e2e_add_body_lands_clear_of_the_wedge(studio, page, shot):
     # the old "Add body" put a 20 mm cube at 34 mm, inside the wedge (overlap, Start
     # refused); now it is above the wedge and the tips, nothing overlaps
     assert st["overlaps"] == [], st["overlaps"]
-    import engine
     from studio import presets
 
     scene = presets.load_preset("wedge_45")
@@ -105,8 +104,6 @@ def test_e2e_refused_start_is_readable(studio, page, shot, tmp_path):
     import json
 
     from studio import presets
-
-    from conftest import upload
 
     click(page, "Design", role="tab")
     # the wedge pushed 3 mm into the bristle tips: Start is refused before any build
@@ -151,7 +148,6 @@ def test_e2e_time_slider_decimals_and_page_keys(studio, page, shot, tmp_path, ti
     st = run_to_playback(page, studio, tiny_scene(), tmp_path)
     n = st["n_frames"]
     click(page, "Results", role="tab")
-    times = None
     slider = page.get_by_role("slider").first
     slider.evaluate("e => e.focus()")
     page.keyboard.press("Home")
