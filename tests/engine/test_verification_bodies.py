@@ -267,6 +267,9 @@ def _sphere_on_tapered_brush(dt_factor: float):
         dt_factor, lambda auto_dt: 100_000 * auto_dt)
 
 
+# slow (about 50 s: 1.1 s of ringing at three dt); the quick pass keeps the box edge-first
+# impact on the same brush and tests/engine/test_energy_books.py's damped impact
+@pytest.mark.slow
 def test_free_sphere_on_tapered_brush_conserves_energy():
     """The sphere's contact with a segment's interior fades out towards the nodes and sees the
     taper's radius; its force must be the whole gradient of that energy (including dU/ds of the

@@ -32,6 +32,9 @@ def _touching_scene(duration: float) -> dict:
     return scene
 
 
+# slow (about 50 s): 4e3 steps recorded every step; the quick pass keeps the momentum checks
+# through contacts of tests/presets and tests/engine/test_verification_bodies.py
+@pytest.mark.slow
 def test_angular_momentum_change_is_the_contact_torque_impulse(tmp_path):
     # Recorded every step, the target's torque integrates by the trapezoid rule to exactly
     # the kick-drift-kick update of its L (two half kicks per step); the z component (the

@@ -38,6 +38,10 @@ def _study(tmp_path, name: str, *extra: str) -> dict[float, float]:
     return _curve(out)
 
 
+# slow (about 35 s: three wedge studies); the quick pass keeps the rate, increment and
+# first-contact checks below, and test_wedge_single_bristle.py's single bristle against
+# the elastica
+@pytest.mark.slow
 def test_quasi_static_matches_the_slow_dynamic_protocol(tmp_path):
     qs = _study(tmp_path, "qs")
     slow = _study(tmp_path, "slow", "--method", "dynamic", "--max-acceleration", "0.1")
