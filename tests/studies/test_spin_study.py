@@ -160,8 +160,12 @@ def test_delta_omega_differs_between_contacts(spin_study):
     # seed 4.3.2: not the same change at every contact; 10 % of the initial spin is far
     # above the record's resolution of omega (exact to round-off)
     assert np.ptp(deltas) > 1.0
-    big = [d for d in deltas if abs(d) > 0.5]
-    assert len(set(np.round(big, 2))) == len(big)
+    # and no change repeats contact after contact: a state reset at each contact (a periodic
+    # bounce) would give one value at every contact; two of a dozen may coincide to 0.01
+    # rad/s by chance (measured: 0.52 twice among 12 in one cold CI run)
+    big = np.round([d for d in deltas if abs(d) > 0.5], 2)
+    _, repeats = np.unique(big, return_counts=True)
+    assert repeats.max() <= 2, big
 
 
 def test_closer_brush_stops_the_cube_sooner(spin_study):
