@@ -21,6 +21,13 @@ def test_e2e_design_name_label_names_its_box(studio, page, shot):
     # viser's text box had no id for its <label for=...>: get_by_label found nothing
     box = page.get_by_label("design name", exact=True)
     assert box.count() == 1 and box.evaluate("e => e.tagName") == "INPUT"
+    # as a user would, type once the page shows the preset's name (on a loaded machine the
+    # page may still be applying the preset's update, which would overwrite the typing)
+    name = studio.state()["scene_name"]
+    deadline = time.monotonic() + 60
+    while box.input_value() != name:
+        assert time.monotonic() < deadline, f"the page never showed {name!r}"
+        time.sleep(0.2)
     # a click on the label puts the cursor in the box, as a linked label does
     page.locator("label", has_text="design name").first.click(force=True)
     assert page.evaluate("() => document.activeElement.id") == box.evaluate("e => e.id")
