@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from conftest import click, open_preset, set_field, upload, wait_text
 
 
@@ -103,6 +105,10 @@ def test_e2e_loading_a_preset_over_edits_asks_first(studio, page, shot):
     assert page.get_by_role("button", name="Keep editing", exact=True).count() == 0
 
 
+# slow: over the 1,000 km scene software WebGL draws a frame in many seconds, and under
+# CI's load (two xdist workers) the page applied the reset to 33 mm after 90 s in one cold
+# run of three; the scale warnings themselves are unit-tested in tests/studio_ui
+@pytest.mark.slow
 def test_e2e_absurd_scales_are_warned_about(studio, page, shot):
     open_preset(studio, "demo", page)
     # 1,000 km: accepted (the engine allows it) but warned about under the field
