@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from conftest import click, open_preset, set_field, upload, wait_text
+from conftest import click, open_preset, set_field, wait_text
 
 
 def _box(page, label: str) -> str:
