@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 MESH_CASE = r"""
 import json, resource, sys, time
 sys.path.insert(0, sys.argv[1])
-from studio.jobs import JobManager, MeshError
+from studio.service.jobs import JobManager, MeshError
 import trimesh, numpy  # (imported before the baseline)
 path, fmt = sys.argv[2], sys.argv[2].rsplit(".", 1)[1]
 jm = JobManager(sys.argv[3], workers=1)
@@ -101,10 +101,10 @@ def output_cases() -> None:
 def studio_cases() -> None:
     from fastapi.testclient import TestClient
 
-    from studio.jobs import JobManager
-    from studio.serve_cli import allowed_hosts
-    from studio.server.studio_routes import make_api_app
-    from studio.server.ws_guard import guarded_viser_server
+    from studio.service.jobs import JobManager
+    from studio.cli.serve import allowed_hosts
+    from studio.service.server.studio_routes import make_api_app
+    from studio.service.server.ws_guard import guarded_viser_server
 
     sys.path.insert(0, str(ROOT / "tests" / "server"))
     from test_studio_origin import _Studio, _upgrade

@@ -68,7 +68,7 @@ def child_cpu(cmd: list[str]) -> float:
 # the study twice in one process: the second call's CPU is the repeat cost
 _REPEAT_CODE = """
 import sys, time
-from studio.cli import main
+from studio.cli.main import main
 argv, a, b = sys.argv[1:-2], sys.argv[-2], sys.argv[-1]
 if main(argv + ["-o", a]) != 0:
     sys.exit("first study failed")
@@ -95,7 +95,7 @@ def study_repeat_cpu(tmp: Path) -> float:
 _DASK_CODE = """
 import sys
 import studio.studies.runner as r
-from studio.cli import main
+from studio.cli.main import main
 
 def on_dask(todo, out_dir, bar, n_before, tally, finish):
     r._run_on_dask(todo, out_dir, bar, n_before, finish, None, 1)

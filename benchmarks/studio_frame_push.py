@@ -6,11 +6,11 @@
 
 For each brush size it builds the rest geometry of a square brush (``n_nodes`` nodes per
 bristle, so ``n_nodes - 1`` instanced cylinders per bristle), draws it once in a real
-``viser.ViserServer`` (the studio's ``ui_view.View``), then times ``repeats`` frames, each
+``viser.ViserServer`` (the studio's ``studio.web.view.View``), then times ``repeats`` frames, each
 with every node moved (as a recorded frame from a result file would be):
 
 * **compute**: node positions -> per-segment centres, orientations and scales
-  (``ui_view.segment_instances``) and bending-moment colours (``ui_view.colormap``);
+  (``studio.web.view.segment_instances``) and bending-moment colours (``studio.web.view.colormap``);
 * **push**: assigning them to the batched-mesh handle inside ``server.atomic()`` (what the
   studio does for every streamed or scrubbed frame): viser serialises the arrays into its
   message buffer here;
@@ -36,7 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from studio import ui_view as uv  # noqa: E402
+from studio.web import view as uv  # noqa: E402
 
 
 def _free_port() -> int:

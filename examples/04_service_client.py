@@ -3,7 +3,7 @@
 
 Starts the headless service (``brush-studio serve --headless``) as a subprocess on
 127.0.0.1 and a free port, with its job data in a folder of its own; then, with
-``studio.client.Client``: fetches a preset the server ships (the two-plate gripper, cut to
+``studio.service.client.Client``: fetches a preset the server ships (the two-plate gripper, cut to
 its first 10 ms), submits it, polls the run's progress, downloads its HDF5 result and
 reads it with ``engine.open_result``; finally stops the server (SIGTERM: it cancels what is
 still running and exits). The HTTP API is documented in docs/api.md ("HTTP API").
@@ -26,7 +26,7 @@ from pathlib import Path
 import httpx
 
 import engine
-from studio.client import ApiError, Client
+from studio.service.client import ApiError, Client
 
 out_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "example_output/04_service_client")
 out_dir.mkdir(parents=True, exist_ok=True)

@@ -31,6 +31,20 @@ if _ROOT not in sys.path:
 
 import pytest  # noqa: E402
 
+
+@pytest.fixture(autouse=True, scope="session")
+def _engine_scratch_in_pytest_tmp(tmp_path_factory):
+    """``engine.run(system)`` without an output writes ``brush-studio-*/result.h5`` under the
+    temporary folder and leaves it for the caller (its result points there). Tests that do so
+    write under pytest's base temp (pytest keeps the last three), not /tmp forever."""
+    import tempfile
+
+    before = tempfile.tempdir
+    tempfile.tempdir = str(tmp_path_factory.mktemp("scratch"))
+    yield
+    tempfile.tempdir = before
+
+
 TINY_SCENE = {
     "schema_version": 1,
     "name": "tiny",

@@ -6,7 +6,7 @@ Each ``bash``/``sh``/``shell`` block runs in ``bash -e`` and each ``python`` blo
 ``python`` subprocess, in a new empty temporary folder, and must exit 0. The folder holds one
 thing besides: ``static_presets`` (a link to the repository's), because the docs say their
 commands run from the repository root, where the presets are. ``brush-studio`` resolves to
-*this* checkout's ``studio.cli`` (a shim first on ``PATH``, ``PYTHONPATH`` = the checkout),
+*this* checkout's ``studio.cli.main`` (a shim first on ``PATH``, ``PYTHONPATH`` = the checkout),
 never to whatever an editable install elsewhere points at.
 
 Every fence must have an info string: ``bash``/``python`` blocks run, anything else

@@ -102,7 +102,7 @@ def test_e2e_unstable_dt_warns_and_the_failure_names_it(studio, page, shot):
 
 @pytest.mark.slow  # a run in the worker
 def test_e2e_spin_cube_bristles_move_in_playback(studio, page, shot):
-    from studio.client import Client
+    from studio.service.client import Client
 
     click(page, "Design", role="tab")
     open_preset(studio, "spin_cube_20", page)

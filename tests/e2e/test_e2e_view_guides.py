@@ -9,7 +9,7 @@ from conftest import click, open_preset, set_field
 
 
 def test_e2e_axes_scale_bar_and_fit_view(studio, page, shot):
-    from studio import ui_guides as ug
+    from studio.web import guides as ug
 
     open_preset(studio, "demo", page)
     st = studio.wait_state(lambda s: s["guides"]["scale_bar_mm"] > 0, what="guides")

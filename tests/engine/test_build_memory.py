@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import engine
-from studio.cli import main
+from studio.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
 

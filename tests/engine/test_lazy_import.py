@@ -47,7 +47,7 @@ def test_public_names_resolve_to_the_functions(tiny_scene):
 
 _DESIGN_CODE = """
 import json, sys
-from studio import ui_view as uv
+from studio.web import view as uv
 scene = json.load(open(sys.argv[1]))
 assert len(uv.design_bristles(scene).positions) and len(uv.design_bodies(scene))
 print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))

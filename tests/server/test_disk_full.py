@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import os
 
-from studio.jobs import worker
+from studio.service.jobs import worker
 
 
 class _Conn:

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 from engine.mesh_limits import mesh_bytes_problem, mesh_counts
-from studio.jobs import JobManager, MeshError, StorageError
+from studio.service.jobs import JobManager, MeshError, StorageError
 
 LIMIT = 200_000
 

@@ -1,11 +1,11 @@
-"""studio.client against the real server: submit, wait, download, series, errors."""
+"""studio.service.client against the real server: submit, wait, download, series, errors."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 import engine
-from studio.client import ApiError, Client
+from studio.service.client import ApiError, Client
 
 
 def test_client_round_trip(server, tiny_scene, write_scene, tmp_path, capsys):

@@ -8,8 +8,8 @@ import socket
 
 from fastapi.testclient import TestClient
 
-from studio.serve_cli import allowed_hosts
-from studio.server import create_app
+from studio.cli.serve import allowed_hosts
+from studio.service.server import create_app
 
 
 def raw_post(url: str, path: str, body: bytes, headers: dict) -> tuple[int, dict]:
@@ -68,7 +68,7 @@ def test_same_origin_and_allowed_origins_pass(server, tiny_scene):
 
 
 def test_cors_origins_may_post(tmp_path, tiny_scene):
-    from studio.jobs import JobManager
+    from studio.service.jobs import JobManager
 
     jm = JobManager(tmp_path / "data", workers=1)
     try:

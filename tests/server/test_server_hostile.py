@@ -8,9 +8,9 @@ import time
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.jobs import JobManager, MeshError
-from studio.server import create_app
-from studio.server.common import RequestGuard
+from studio.service.jobs import JobManager, MeshError
+from studio.service.server import create_app
+from studio.service.server.common import RequestGuard
 
 
 @pytest.fixture(scope="module")

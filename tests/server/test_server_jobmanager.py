@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import engine
-from studio.jobs import JobManager, MeshError
+from studio.service.jobs import JobManager, MeshError
 
 
 @pytest.fixture

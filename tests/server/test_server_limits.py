@@ -9,9 +9,9 @@ import time
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.cli import main
-from studio.jobs import JobManager, Limits
-from studio.server import create_app
+from studio.cli.main import main
+from studio.service.jobs import JobManager, Limits
+from studio.service.server import create_app
 
 
 @pytest.fixture(scope="module")

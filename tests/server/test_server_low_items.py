@@ -8,8 +8,8 @@ import json
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.jobs import JobManager
-from studio.server import create_app
+from studio.service.jobs import JobManager
+from studio.service.server import create_app
 
 
 @pytest.fixture(scope="module")

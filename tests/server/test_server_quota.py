@@ -9,10 +9,10 @@ import pytest
 from fastapi.testclient import TestClient
 
 import engine
-from studio.jobs import JobManager, Limits, StorageError
-from studio.jobs.quota import StorageQuota, folder_bytes
-from studio.serve_cli import limits_from_args, register
-from studio.server import create_app
+from studio.service.jobs import JobManager, Limits, StorageError
+from studio.service.jobs.quota import StorageQuota, folder_bytes
+from studio.cli.serve import limits_from_args, register
+from studio.service.server import create_app
 
 
 def test_folder_bytes_is_the_sum_of_the_files(tmp_path):

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.cli import main
-from studio.jobs import JobManager
-from studio.serve_cli import is_loopback
-from studio.server import create_app
+from studio.cli.main import main
+from studio.service.jobs import JobManager
+from studio.cli.serve import is_loopback
+from studio.service.server import create_app
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +93,7 @@ def test_after_a_stop_signal_a_hanging_thread_cannot_hold_the_server():
     import sys
     import time
 
-    code = ("import threading, time; from studio.serve_cli import _exit_after; "
+    code = ("import threading, time; from studio.cli.serve import _exit_after; "
             "threading.Thread(target=time.sleep, args=(100,)).start(); _exit_after(0.5, 143)")
     t0 = time.monotonic()
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

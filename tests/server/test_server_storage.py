@@ -14,8 +14,8 @@ import sqlite3
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.jobs import JobManager, StorageError
-from studio.server import create_app
+from studio.service.jobs import JobManager, StorageError
+from studio.service.server import create_app
 
 
 class FullDisk:

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from studio.jobs import STUDIES, StudyOptionError, make_options, study_options, study_schema
+from studio.service.jobs import STUDIES, StudyOptionError, make_options, study_options, study_schema
 from studio.presets import preset_path
 
 TINY_WEDGE = {"preset": "wedge_60", "depth_mm": 2, "nodes": 3}  # ~10 s warm
@@ -88,7 +88,7 @@ def test_bad_study_requests_get_422_with_clear_messages(server):
 
 
 def test_a_tiny_wedge_study_runs_as_a_job_and_its_files_download(server, tmp_path):
-    from studio.client import ApiError, Client
+    from studio.service.client import ApiError, Client
 
     with Client(server.url) as client:
         sid = client.submit_study("wedge", TINY_WEDGE, name="tiny wedge")

@@ -10,8 +10,8 @@ import socket
 import pytest
 from fastapi.testclient import TestClient
 
-from studio.server.common import same_origin
-from studio.server.studio_routes import make_api_app
+from studio.service.server.common import same_origin
+from studio.service.server.studio_routes import make_api_app
 
 
 class _Studio:
@@ -30,7 +30,7 @@ class _Studio:
 
 @pytest.fixture
 def studio_api(tmp_path):
-    from studio.jobs import JobManager
+    from studio.service.jobs import JobManager
 
     jm = JobManager(tmp_path / "data", workers=1)
     studio = _Studio()
@@ -95,8 +95,8 @@ def _upgrade(port: int, host: str, origin) -> int:
 
 def test_the_studio_websocket_refuses_other_origins_and_hosts():
     # bug caught: the studio's WebSocket accepted any Origin (101 for http://evil.example)
-    from studio.serve_cli import allowed_hosts
-    from studio.server.ws_guard import guarded_viser_server
+    from studio.cli.serve import allowed_hosts
+    from studio.service.server.ws_guard import guarded_viser_server
 
     server = guarded_viser_server("127.0.0.1", 0, allowed_hosts("127.0.0.1"), verbose=False)
     try:

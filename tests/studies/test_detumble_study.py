@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import detumble
 from studio.studies.detumble_analysis import bending_stress, detumble_time
 

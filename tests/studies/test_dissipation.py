@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import dissipation as dis
 
 K1, K2, OMEGA0 = 0.05, 0.4, 10.0  # 1/s, rad/s^2, rad/s: stops after 16.2 s

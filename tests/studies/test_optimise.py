@@ -233,7 +233,7 @@ def test_the_command_line_comes_from_the_options_model():
                                            "preset": "spin_cube_20"})
     assert opts.cubes_mm == [20.0, 60.0] and opts.trials == 3 and opts.workers == 1
     assert opts.preset.endswith("spin_cube_20.json")  # a preset name -> its file
-    # the job layer stores the options as JSON and reads them back (studio/jobs)
+    # the job layer stores the options as JSON and reads them back (studio/service/jobs)
     from studio.studies.registry import get, options_to_dict
 
     data = json.loads(json.dumps(options_to_dict(opts)))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from engine.reduced_law import PARAMS, load_law, torsion_radius
-from studio.cli import main
+from studio.cli.main import main
 
 
 def test_torsion_radius_of_a_square_is_the_closed_form():

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies.refinement import overlap_ceiling, parse_levels
 from studio.studies.sensitivity import (PARAMETERS, apply_parameters, draw_samples,
                                         mean_std_table, nominal_values)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import rod
 
 # the brief's Euler-Bernoulli numbers for the steel rod of seed table 4.1

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import spin
 
 

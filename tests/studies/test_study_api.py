@@ -81,7 +81,7 @@ def test_a_bad_value_names_the_option_the_value_and_the_bound(argv, http, flag, 
                                                               text, capsys, tmp_path):
     """The command line and the HTTP dict refuse the same value with the same message:
     the option, the value and the bound."""
-    from studio.cli import main
+    from studio.cli.main import main
 
     assert main(["study", "wedge", *argv, "-o", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err

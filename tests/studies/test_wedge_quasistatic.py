@@ -20,7 +20,7 @@ import json
 import numpy as np
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
 PRESET = ROOT / "static_presets" / "wedge_60.json"

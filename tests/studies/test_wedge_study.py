@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies.run_files import load_outcome, run_paths
 from studio.studies.wedge import curve_checks, read_run_h5
 from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS

@@ -16,7 +16,7 @@ import pytest
 
 import engine
 import studio
-from studio.cli import main
+from studio.cli.main import main
 
 SUMMARY_KEYS = {"dt", "dt_limited_by", "steps", "wall_s", "node_steps_per_s", "stages",
                 "status"}

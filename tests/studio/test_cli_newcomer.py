@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import re
 
-from studio.cli import build_parser, main
-from studio.run_console import summary_table
+from studio.cli.main import build_parser, main
+from studio.cli.run_console import summary_table
 
 
 def test_run_and_validate_take_a_preset_name(tmp_path, capsys):

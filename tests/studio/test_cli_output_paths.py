@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 
 
 @pytest.mark.parametrize("case", ["under_a_file", "proc", "a_directory", "summary"])

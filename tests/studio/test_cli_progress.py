@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import types
 
-from studio.run_console import ProgressBar as _ProgressBar
+from studio.cli.run_console import ProgressBar as _ProgressBar
 
 
 def _report(steps, total=10_000):
@@ -60,7 +60,7 @@ def test_no_eta_while_compiling_and_none_from_the_compile(monkeypatch):
 
 
 def test_the_summary_shows_the_compile_apart_from_the_speed():
-    from studio.run_console import summary_table
+    from studio.cli.run_console import summary_table
 
     summary = {"status": "completed", "wall_s": 130.0, "compile_s": 120.0, "steps": 10_000,
                "steps_per_s": 1000.0, "node_steps_per_s": 4e4, "n_nodes": 40,

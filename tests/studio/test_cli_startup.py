@@ -10,7 +10,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 _CODE = """
 import contextlib, io, json, sys
-from studio.cli import main
+from studio.cli.main import main
 with contextlib.redirect_stdout(io.StringIO()):
     codes = [main(["--help"]), main(["study", "wedge", "--help"])]
 heavy = ("numba", "distributed", "dask", "trimesh", "scipy", "engine.kernels.stepper", "matplotlib")

@@ -16,7 +16,7 @@ import pytest
 
 import engine
 from studio.studies import convergence as cv
-from studio.cli import main
+from studio.cli.main import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "engine"))
 import analytic  # noqa: E402  (tests/engine/analytic.py: closed forms, no engine model inside)

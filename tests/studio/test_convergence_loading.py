@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import convergence as cv
 from studio.studies.convergence import protocol_ladder
 from studio.studies.wedge import INCREMENT_TOLERANCE

@@ -10,7 +10,7 @@ import json
 
 import pytest
 
-from studio.cli import build_parser, main
+from studio.cli.main import build_parser, main
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:

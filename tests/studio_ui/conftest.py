@@ -8,6 +8,6 @@ import pytest
 def demo(demo_scene_dict):
     """The demo scene, validated and dumped the way the studio keeps it."""
     import engine
-    from studio import ui_scene as us
+    from studio.web import scene as us
 
     return us.scene_dict(engine.parse_scene(demo_scene_dict))

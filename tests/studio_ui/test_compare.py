@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from studio import compare as cmp
+from studio.plots import compare as cmp
 
 
 def _run(job, rows, radius, force_z):

@@ -11,7 +11,7 @@ import pytest
 def studio_app():
     import viser
 
-    from studio.app import Studio, demo_scene
+    from studio.web.app import Studio, demo_scene
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -1,4 +1,4 @@
-"""The Studies tab's design search without a browser (studio.design_search): the design's
+"""The Studies tab's design search without a browser (studio.web.design_search): the design's
 fields and their bounds, the study's variable text in SI, a search's progress read from an
 Optuna journal, its charts, and a trial's design as a scene."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from studio import design_search as ds
+from studio.web import design_search as ds
 from studio.studies.optimise.variables import get_path, parse_variable
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -126,7 +126,7 @@ def test_trial_scene_is_the_start_design_with_the_trial_values(tmp_path):
 def test_form_sends_a_default_on_flag_unticked():
     """optimise's refine is on by default: unticked in the form it must reach the study as
     False (the form sent only ticked flags, so the winner was always re-run)."""
-    from studio.panels.studies_tab import form_options
+    from studio.web.panels.studies_tab import form_options
 
     assert form_options("optimise", {"refine": False}) == {"refine": False}
     assert form_options("optimise", {"refine": True}) == {}
@@ -134,7 +134,7 @@ def test_form_sends_a_default_on_flag_unticked():
 
 def test_number_boxes_keep_three_significant_digits():
     """viser takes a box's decimals from its step: 0.4 s gave one decimal (0.02 -> 0.0)."""
-    from studio.panels.studies_tab import fine_step
+    from studio.web.panels.studies_tab import fine_step
 
     assert fine_step(0.4) == pytest.approx(1e-4)
     assert fine_step(0.5, 2.0) == pytest.approx(1e-3)

@@ -1,4 +1,4 @@
-"""The studio's design view (``studio.ui_view.design_bristles`` on a scene dict) draws the
+"""The studio's design view (``studio.web.view.design_bristles`` on a scene dict) draws the
 bristles where ``engine.build`` puts them: the same node positions, radii and bonds.
 
 The view used to carry its own copy of the layout maths; this test catches the two drifting
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import engine
-from studio import ui_view as uv
+from studio.web import view as uv
 
 PRESETS = Path(__file__).resolve().parents[2] / "static_presets"
 

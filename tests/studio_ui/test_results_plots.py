@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from studio.result_plots import press_depth
+from studio.plots.result_plots import press_depth
 
 
 class _Result:
@@ -85,7 +85,7 @@ def _spin_frames():
 
 
 def test_plots_show_signed_components_of_a_reversing_spin():
-    from studio.result_plots import result_figures
+    from studio.plots.result_plots import result_figures
 
     figs, cursor_x = result_figures(_spin_frames())
     traces = {d.name: np.asarray(d.y) for d in figs["angular velocity [deg/s]"].data}
@@ -106,7 +106,7 @@ def test_plots_show_signed_components_of_a_reversing_spin():
     dv = figs["Δv of the controlled body [m/s]"].data[0]
     assert dv.name.startswith("disc Δv") and dv.y[-1] == pytest.approx(0.2)
     # no trace of the cursor's red, and every plot's x is the time (no press here)
-    from studio.result_plots import CURSOR_COLOR
+    from studio.plots.result_plots import CURSOR_COLOR
     assert not cursor_x
     assert all(d.line.color != CURSOR_COLOR for f in figs.values() for d in f.data)
 
@@ -115,7 +115,7 @@ def test_contact_and_actuator_series_come_from_their_own_channels():
     """With the engine's actuator channels (issue 22), a controlled body's thrust gets its
     own plot and the contact plot shows the contact channel alone: a plot that read the
     thrust into "contact force" (issue 29, item 5) would fail here."""
-    from studio.result_plots import result_figures
+    from studio.plots.result_plots import result_figures
 
     frames = _spin_frames()
     frames.res.data["bodies/disc/actuator_force"] = np.tile([5.0, 0.0, 0.0], (5, 1))
@@ -132,7 +132,7 @@ def test_contact_and_actuator_series_come_from_their_own_channels():
 def test_several_bodies_show_one_coloured_magnitude_each():
     """Three bodies (the gripper's fingers and target): one |F| per body, each its own
     colour, the 9 components hidden in the legend (issue 29, item 6)."""
-    from studio.result_plots import result_figures
+    from studio.plots.result_plots import result_figures
 
     frames = _spin_frames()
     for name, f in (("a", [3.0, 4.0, 0.0]), ("b", [0.0, 0.0, 2.0])):
@@ -149,7 +149,7 @@ def test_several_bodies_show_one_coloured_magnitude_each():
 
 
 def test_the_time_slider_picks_the_nearest_recorded_frame():
-    from studio.panels.results import ResultsPanel
+    from studio.web.panels.results import ResultsPanel
 
     panel = SimpleNamespace(playback=SimpleNamespace(time=np.array([0.0, 0.02, 0.04, 0.05])))
 

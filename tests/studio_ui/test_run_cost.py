@@ -9,8 +9,8 @@ from types import SimpleNamespace
 import pytest
 
 from studio import presets
-from studio.panels import run_cost as rc
-from studio.panels.result_frames import color_note
+from studio.web.panels import run_cost as rc
+from studio.web.result_frames import color_note
 
 
 def _scene(name, **run):

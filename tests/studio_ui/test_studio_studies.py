@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from studio.jobs import StudyOptionError, make_options
-from studio.panels.studies_tab import (CURRENT_DESIGN, DEFAULT_CHOICE, STUDY_NAMES, FormError,
+from studio.service.jobs import StudyOptionError, make_options
+from studio.web.panels.studies_tab import (CURRENT_DESIGN, DEFAULT_CHOICE, STUDY_NAMES, FormError,
                                        _initial, convergence_figure, convergence_markdown,
                                        form_options, form_spec, png_array)
 

@@ -1,4 +1,4 @@
-"""Interactive charts and time left of studies in the Studies tab (studio.study_charts,
+"""Interactive charts and time left of studies in the Studies tab (studio.plots.study_charts,
 issue 14 item 10), and studies on a design the studio stored (``design:<id>``)."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from studio import study_charts as sc
-from studio.jobs import StudyOptionError, make_options
+from studio.plots import study_charts as sc
+from studio.service.jobs import StudyOptionError, make_options
 
 
 def _write(path, text):

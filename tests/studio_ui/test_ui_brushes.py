@@ -1,4 +1,4 @@
-"""Adding and removing brushes of a design (studio.ui_brushes, issue 14 item 7)."""
+"""Adding and removing brushes of a design (studio.web.brushes, issue 14 item 7)."""
 from __future__ import annotations
 
 import math
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from studio import presets
-from studio import ui_brushes as ub
-from studio import ui_scene as us
+from studio.web import brushes as ub
+from studio.web import scene as us
 
 
 def _two_brushes() -> dict:
@@ -81,7 +81,7 @@ def test_fields_edit_the_selected_brush_only():
 
 
 def test_the_brushes_not_edited_are_greyed_in_the_view():
-    from studio import ui_view as uv
+    from studio.web import view as uv
 
     scene = _two_brushes()
     bristles = uv.design_bristles(scene)

@@ -1,11 +1,11 @@
-"""Guides of the 3D view (studio.ui_guides, issue 14 item 8): round scale-bar lengths and a
+"""Guides of the 3D view (studio.web.guides, issue 14 item 8): round scale-bar lengths and a
 camera that frames the design."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from studio import ui_guides as ug
+from studio.web import guides as ug
 
 
 @pytest.mark.parametrize("x, expected", [(11.0, 10.0), (10.0, 10.0), (9.99, 5.0), (4.0, 2.0),

@@ -1,5 +1,5 @@
 """The studio's UI <-> scene mapping: units at the edge, validation messages routed to the
-fields they name (studio/ui_scene.py)."""
+fields they name (studio/web/scene.py)."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from studio import ui_scene as us
+from studio.web import scene as us
 
 SEL = us.Selection()
 
@@ -175,7 +175,7 @@ def test_ui_add_body_clears_the_bodies_already_there(demo):
                                       "n_steps": 2}},
 ])
 def test_a_value_left_out_shows_what_the_engine_uses(motion):
-    # the defaults shown for optional values come from the scene model (studio/ui_fields.py
+    # the defaults shown for optional values come from the scene model (studio/web/fields.py
     # reads engine.Scene); the reference is independent of that reading: the engine's own
     # validation fills the scene in. A default restated in the studio and changed in
     # engine/spec.py since (or read from the wrong union member) shows a different value

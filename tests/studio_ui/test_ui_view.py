@@ -1,5 +1,5 @@
-"""The studio's 3D view geometry (studio/ui_view.py) and the app's design logic driven
-without a browser (studio/app.py: a real viser server, no job pool)."""
+"""The studio's 3D view geometry (studio/web/view.py) and the app's design logic driven
+without a browser (studio/web/app.py: a real viser server, no job pool)."""
 from __future__ import annotations
 
 import math
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from engine.layout import quat_to_matrix
-from studio import ui_view as uv
+from studio.web import view as uv
 
 
 def _brush(**kw):
@@ -105,7 +105,7 @@ def _free_port() -> int:
 def studio_app():
     import viser
 
-    from studio.app import Studio, demo_scene
+    from studio.web.app import Studio, demo_scene
 
     server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
     app = Studio(server, None, demo_scene())

@@ -1,11 +1,11 @@
-"""Scale warnings on a design (studio.ui_warnings, issue 14 item 8)."""
+"""Scale warnings on a design (studio.web.design_warnings, issue 14 item 8)."""
 from __future__ import annotations
 
 import pytest
 
 from studio import presets
-from studio import ui_scene as us
-from studio import ui_warnings as uw
+from studio.web import scene as us
+from studio.web import design_warnings as uw
 
 
 @pytest.mark.parametrize("name", presets.preset_names())
