@@ -21,8 +21,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "studies")]
 import numpy as np  # noqa: E402
 
 import engine  # noqa: E402
-from studio.studies.wedge import wedge_cycle  # noqa: E402
-from studio.studies.wedge_protocol import make_protocol  # noqa: E402
+from studio.studies.wedge.cycle import wedge_cycle  # noqa: E402
+from studio.studies.wedge.protocol import make_protocol  # noqa: E402
 from test_wedge_single_bristle import (_elastica, contact_stiffness, face_gap,  # noqa: E402
                                        single_bristle_scene)
 

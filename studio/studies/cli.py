@@ -10,8 +10,10 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import (detumble, docking, fur, optimise, reduce, refinement, rod_study, sensitivity,
-               spin_study, wedge_study)
+from . import detumble, docking, fur, optimise, reduce, refinement, sensitivity
+from .rod import study as rod_study
+from .spin import study as spin_study
+from .wedge import study as wedge_study
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
                  reduce, fur, docking, optimise)

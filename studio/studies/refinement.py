@@ -28,9 +28,9 @@ from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
 from .study_command import report_failures, run_many_from_args, set_command
 from ..exit_codes import EXIT_CANCELLED
-from .wedge import TASK, numeric_summary
-from .wedge_protocol import ProtocolOptions, protocol_from_options
-from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
+from .wedge.cycle import TASK, numeric_summary
+from .wedge.protocol import ProtocolOptions, protocol_from_options
+from .wedge.scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
 
 DEFAULT_LEVELS = "4,6,8,12,17,24,32"

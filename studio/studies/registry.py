@@ -19,7 +19,10 @@ from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
 from . import (convergence, detumble, docking, fur, optimise, reduce, refinement,
-               rod_study, sensitivity, spin_study, wedge_study)
+               sensitivity)
+from .rod import study as rod_study
+from .spin import study as spin_study
+from .wedge import study as wedge_study
 from .options import StudyOptionError, StudyOptions, field_extra, form_fields, parse_options
 
 __all__ = ["Study", "REGISTRY", "STUDIES", "SERVER_OPTIONS", "SCENE_OPTIONS", "get",

@@ -17,7 +17,7 @@ The uncertain parameters and their ranges (seed 4.2, DESIGN §4):
 (the others nominal): 1 + 2 x 5 runs per scene. ``montecarlo`` draws every parameter
 uniformly from its range at once (``--seed``, reproducible: a restart draws the same
 samples) and reports the mean ± std of the force per depth and phase (like seed fig. 4.18).
-Both run the wedge protocol (:mod:`studio.studies.wedge`, quasi-static by default): sensitivity
+Both run the wedge protocol (:mod:`studio.studies.wedge.cycle`, quasi-static by default): sensitivity
 to 10 mm, montecarlo at the scene's own resolution and full depth (33 mm and back in the
 presets, as the seed did); ``--depth-mm`` and ``--nodes`` change that.
 """
@@ -38,9 +38,9 @@ from .run_files import write_json_atomic, write_outcomes
 from .runner import RunSpec
 from .study_command import report_failures, run_many_from_args, set_command
 from ..exit_codes import EXIT_CANCELLED
-from .wedge import TASK, numeric_summary
-from .wedge_protocol import ProtocolOptions, protocol_from_options
-from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
+from .wedge.cycle import TASK, numeric_summary
+from .wedge.protocol import ProtocolOptions, protocol_from_options
+from .wedge.scenes import (StudyInputError, apply_resolution, resolve_scenes, validate_scenes,
                            wedge_angle_deg)
 
 # name: (label, unit shown, low, high, nominal or None = the scene's value); SI inside

@@ -12,7 +12,7 @@ import pytest
 
 import engine
 from studio.cli.main import main
-from studio.studies import rod
+from studio.studies.rod import runs as rod
 
 # the brief's Euler-Bernoulli numbers for the steel rod of seed table 4.1
 EB_HZ = [6.353, 39.81, 111.47]

@@ -20,7 +20,7 @@ import pytest
 
 import engine
 from studio.cli.main import main
-from studio.studies import spin
+from studio.studies.spin import runs as spin
 
 
 # ----------------------------------------------------------------------------- geometry

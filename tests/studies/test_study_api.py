@@ -94,7 +94,7 @@ def test_a_bad_value_names_the_option_the_value_and_the_bound(argv, http, flag, 
 
 
 def test_a_set_cancel_stops_a_study_before_its_first_run(tmp_path):
-    from studio.studies import wedge_study as wedge
+    from studio.studies.wedge import study as wedge
 
     cancel = threading.Event()
     cancel.set()
@@ -109,7 +109,8 @@ def test_a_set_cancel_stops_a_study_before_its_first_run(tmp_path):
 
 
 def test_bad_input_raises_a_typed_error_with_the_whole_message(tmp_path):
-    from studio.studies import rod_study, wedge_study
+    from studio.studies.rod import study as rod_study
+    from studio.studies.wedge import study as wedge_study
 
     with pytest.raises(StudyOptionError, match="cases"):
         registry.get("rod").options_from_dict({"cases": ["nope"]})

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from studio.cli.main import main
-from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
+from studio.studies.wedge.protocol import PROTOCOL_DEFAULTS
 
 
 def _curve(out) -> dict[float, float]:
@@ -97,7 +97,7 @@ def test_increment_check_compares_the_run_with_halved_increments(tmp_path):
     reports the largest relative change of the recorded force. Checked against the two runs'
     own HDF5 tables, recomputed here (bug caught: comparing a run with itself, the wrong
     protocol for the check run, or records at different depths)."""
-    from studio.studies.wedge import INCREMENT_TOLERANCE, read_run_h5
+    from studio.studies.wedge.cycle import INCREMENT_TOLERANCE, read_run_h5
 
     out = tmp_path / "inc"
     assert main(["study", "wedge", "--preset", "wedge_60", "--nodes", "3", "--depth-mm", "3",

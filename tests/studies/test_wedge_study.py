@@ -10,8 +10,8 @@ import pytest
 
 from studio.cli.main import main
 from studio.studies.run_files import load_outcome, run_paths
-from studio.studies.wedge import curve_checks, read_run_h5
-from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
+from studio.studies.wedge.cycle import curve_checks, read_run_h5
+from studio.studies.wedge.protocol import PROTOCOL_DEFAULTS
 
 
 def test_wedge_command_writes_cycle_and_restarts(small_wedge_scene, write_scene, tmp_path,

@@ -16,8 +16,8 @@ import pytest
 from studio.cli.main import main
 from studio.studies import convergence as cv
 from studio.studies.convergence import protocol_ladder
-from studio.studies.wedge import INCREMENT_TOLERANCE
-from studio.studies.wedge_protocol import PROTOCOL_DEFAULTS
+from studio.studies.wedge.cycle import INCREMENT_TOLERANCE
+from studio.studies.wedge.protocol import PROTOCOL_DEFAULTS
 
 LADDER = (1, 2, 4)
 PRESET_FILE = Path(__file__).resolve().parents[2] / "static_presets" / "wedge_60.json"

@@ -75,8 +75,8 @@ def protocol_levels(scene: dict, quantity: Quantity, key: str, values: Sequence
                     ) -> list[Level]:
     """One level per value: the wedge study's quasi-static protocol for ``scene``, loading
     only, down to the quantity's depth, with ``key`` set to the value (``Level.protocol``)."""
-    from studio.studies.wedge_protocol import make_protocol
-    from studio.studies.wedge_scenes import StudyInputError
+    from studio.studies.wedge.protocol import make_protocol
+    from studio.studies.wedge.scenes import StudyInputError
 
     if quantity.kind != "wedge_force":
         raise ConvergenceError(
@@ -112,7 +112,7 @@ def run_protocol_ladder(levels: Sequence[Level], out_dir: Path, *, serial: bool,
     """Run the levels through the studies' runner (``serial``: one worker, in this process);
     one record per level like :func:`running.run_ladder`'s."""
     from studio.studies.runner import RunSpec, run_many
-    from studio.studies.wedge import TASK
+    from studio.studies.wedge.cycle import TASK
 
     specs = [RunSpec(lv.run_id, lv.scene, {"level": lv.level, "protocol": lv.protocol,
                                            "setting": list(lv.setting)}, TASK)
@@ -132,7 +132,7 @@ def run_protocol_ladder(levels: Sequence[Level], out_dir: Path, *, serial: bool,
 
 def measure_protocol_level(h5, quantity: Quantity) -> float:
     """The force the level recorded at the quantity's depth on the way in, N."""
-    from studio.studies.wedge import read_run_h5
+    from studio.studies.wedge.cycle import read_run_h5
 
     curve = read_run_h5(h5)
     for d, f, phase in zip(curve["depth_m"], curve["force_N"], curve["phase"]):
@@ -144,7 +144,7 @@ def measure_protocol_level(h5, quantity: Quantity) -> float:
 def curve_changes(levels: Sequence[Level], records: Sequence[dict]) -> list[Optional[dict]]:
     """For each level after the first, its whole recorded curve against the previous level's
     (:func:`studio.studies.wedge.increment_check`); None where either run did not finish."""
-    from studio.studies.wedge import increment_check, read_run_h5
+    from studio.studies.wedge.cycle import increment_check, read_run_h5
 
     out: list[Optional[dict]] = []
     for lv, prev, rec, prev_rec in zip(levels[1:], levels, records[1:], records):

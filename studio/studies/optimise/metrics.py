@@ -237,7 +237,7 @@ def analyse_run(h5_path: Path, target: str, stress_limit: float, *,
     without it peak_contact_pressure is None)."""
     import engine
 
-    from ..spin import contact_intervals
+    from ..spin.runs import contact_intervals
 
     with engine.open_result(h5_path) as res:
         load = read_chaser_load(res, chaser_mass)

@@ -1,6 +1,6 @@
 """The scenario set a design must serve, and the scene of one design x scenario.
 
-The test rig is the seed's brush dynamic test (seed 4.3, ``studio.studies.spin``): a target
+The test rig is the seed's brush dynamic test (seed 4.3, ``studio.studies.spin.runs``): a target
 spins into a fixed brush whose bristles point at it. A scenario fixes the target (a cube of
 edge ``a`` and density rho on a hinge through its centre, or, tumbling, a free
 ``a x 1.25a x 1.5a`` box spinning about a non-principal axis), its spin rate, the brush
@@ -53,7 +53,7 @@ def scenario_set(cubes_mm, spin_rates, configs, *, tumbling: bool = False,
                  ) -> list[Scenario]:
     """Every cube x spin rate x configuration (plus a tumbling box per cube and spin rate),
     each with ``material_draws`` material draws (or the nominal material)."""
-    from ..spin import CONFIGS
+    from ..spin.runs import CONFIGS
 
     if not cubes_mm or not spin_rates or not configs:
         raise StudyInputError("the scenario set is empty: give --cubes-mm, --spin-rates and "
@@ -112,7 +112,7 @@ def scenario_scene(base: dict, design: dict, scenario: Scenario, *, nodes: int,
     """The scene of ``design`` (variables -> values) meeting ``scenario``: the base scene's
     brush with the design's values, placed as the spin study places it for the scenario's
     configuration, and the scenario's target."""
-    from ..spin import CONFIGS, Q_Z_TO_MINUS_X, STOP_SPEED  # noqa: F401
+    from ..spin.runs import CONFIGS, Q_Z_TO_MINUS_X, STOP_SPEED  # noqa: F401
 
     scene = copy.deepcopy(base)
     apply_design(scene, design, stiffness_via=stiffness_via)

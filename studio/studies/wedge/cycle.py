@@ -1,5 +1,5 @@
 """One run of the wedge study (seed 4.2): force against penetration depth, loading and
-unloading. The study (:mod:`studio.studies.wedge_study`) makes one run per scene (per wedge
+unloading. The study (:mod:`studio.studies.wedge.study`) makes one run per scene (per wedge
 angle), each a Dask task (:func:`wedge_cycle`, named by :data:`TASK`). A run replaces
 the wedge's scripted motion by the seed's hold-until-steady protocol (seed 4.2, fig. 4.11):
 
@@ -39,11 +39,11 @@ from pathlib import Path
 from typing import Optional
 
 from engine.jsonable import jsonable
-from . import api
-from .runner import report_progress
-from .wedge_protocol import step_duration
+from studio.studies import api
+from studio.studies.runner import report_progress
+from studio.studies.wedge.protocol import step_duration
 
-TASK = "studio.studies.wedge:wedge_cycle"
+TASK = "studio.studies.wedge.cycle:wedge_cycle"
 INCREMENT_TOLERANCE = 0.02  # the increment check's pass mark: 2 % between successive halvings
 
 

@@ -1,5 +1,5 @@
 """The brush dynamic test of seed 4.3 (``brush-studio study spin``): its scenes, the analysis
-of a run and the run's task (:func:`spin_task`; the study is :mod:`studio.studies.spin_study`).
+of a run and the run's task (:func:`spin_task`; the study is :mod:`studio.studies.spin.study`).
 
 A rigid foam cube (20, 40 or 60 mm) spins about a fixed horizontal axis (world y, through its
 centre) with the external dissipation of seed eq. 4.6 and hits a fixed 17 x 5 silicone brush
@@ -36,7 +36,7 @@ from typing import Optional
 
 import numpy as np
 
-from . import api
+from studio.studies import api
 
 CUBES_MM = (20, 40, 60)
 CONFIGS = {  # config -> (brush orientation, level, horizontal position)

@@ -9,8 +9,8 @@ from typing import Literal, Optional
 
 from pydantic import Field
 
-from .options import StudyOptions
-from .wedge_scenes import StudyInputError, find_body
+from studio.studies.options import StudyOptions
+from studio.studies.wedge.scenes import StudyInputError, find_body
 
 PROTOCOL_DEFAULTS = {
     "method": "quasi_static",  # or "dynamic": the seed's hold-until-steady windows

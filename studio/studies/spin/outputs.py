@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .spin import config_label, read_spin
+from studio.studies.spin.runs import config_label, read_spin
 
 
 def write_outputs(out_dir: Path, outcomes) -> dict:

@@ -10,8 +10,8 @@ import math
 from pathlib import Path
 from typing import Optional
 
-from .api import StudyInputError
-from .study_command import number_list
+from studio.studies.api import StudyInputError
+from studio.studies.study_command import number_list
 
 DEFAULT_PRESET = "wedge_60"
 

@@ -1,12 +1,12 @@
 """``brush-studio study spin``: the brush dynamic test of seed 4.3 (scenes, analysis and the
-run's task in :mod:`studio.studies.spin`): every cube x brush configuration, and one of them
+run's task in :mod:`studio.studies.spin.runs`): every cube x brush configuration, and one of them
 with random bristle tips. Every run is one Dask task (``studio.studies.runner.run_many``).
 
 Outputs (``-o DIR``): ``spin_summary.csv`` (one row per run: rest time, contacts...),
 ``contacts.csv`` (one row per contact), ``omega.csv`` (omega(t) of every run), ``spin.h5``
 (the same arrays), ``omega_<size>mm.png``, ``delta_omega_vs_duration.png``,
 ``randomness.png``, ``rest_times.png``, ``outcomes.json``; ``runs/`` one result file per run
-(:mod:`studio.studies.spin_outputs`).
+(:mod:`studio.studies.spin.outputs`).
 """
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from typing import Annotated, Literal, Optional, Sequence
 
 from pydantic import Field
 
-from . import api
-from .options import StudyOptions
-from .spin import CONFIGS, CUBES_MM, SEED_TIP_VARIANCE, config_label, spin_scene
-from .spin_outputs import write_outputs
+from studio.studies import api
+from studio.studies.options import StudyOptions
+from studio.studies.spin.runs import CONFIGS, CUBES_MM, SEED_TIP_VARIANCE, config_label, spin_scene
+from studio.studies.spin.outputs import write_outputs
 
 
 # ----------------------------------------------------------------------------- study
@@ -28,7 +28,7 @@ def build_specs(cubes: Sequence[int], configs: Sequence[int], *, n_nodes=None, o
                 record_interval=None):
     """RunSpecs: every cube x configuration with a perfect brush, plus ``random_seeds`` runs
     of (``random_cube``, ``random_config``) with random tips (and its perfect-brush run)."""
-    from .runner import RunSpec
+    from studio.studies.runner import RunSpec
 
     common = dict(n_nodes=n_nodes, omega0=omega0, duration=duration, grid=grid,
                   record_interval=record_interval)
@@ -40,7 +40,7 @@ def build_specs(cubes: Sequence[int], configs: Sequence[int], *, n_nodes=None, o
         specs.append(RunSpec(
             run_id=f"cube{cube}_config{cfg}", scene=spin_scene(cube, cfg, **common),
             params={"cube_mm": cube, "config": cfg, "tip_variance": 0.0, "seed": 0},
-            task="studio.studies.spin:spin_task"))
+            task="studio.studies.spin.runs:spin_task"))
     for s in range(1, random_seeds + 1):
         specs.append(RunSpec(
             run_id=f"cube{random_cube}_config{random_config}_random{s}",
@@ -48,7 +48,7 @@ def build_specs(cubes: Sequence[int], configs: Sequence[int], *, n_nodes=None, o
                              **common),
             params={"cube_mm": random_cube, "config": random_config,
                     "tip_variance": tip_variance, "seed": s},
-            task="studio.studies.spin:spin_task"))
+            task="studio.studies.spin.runs:spin_task"))
     return specs
 
 
@@ -104,7 +104,7 @@ class Options(StudyOptions):
 
 
 def add_parser(study_subparsers) -> None:
-    from .study_command import set_command
+    from studio.studies.study_command import set_command
 
     p = study_subparsers.add_parser(
         "spin", help="brush dynamic test (seed 4.3): spinning cubes against the brush",
@@ -117,8 +117,8 @@ def add_parser(study_subparsers) -> None:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .preset_option import chosen
-    from .study_command import first_problem, report_failures, run_study
+    from studio.studies.preset_option import chosen
+    from studio.studies.study_command import first_problem, report_failures, run_study
 
     problem = None
     cubes = list(options.cubes)

@@ -14,14 +14,14 @@ import numpy as np
 
 from engine.jsonable import jsonable
 from engine.spectrum import power_spectrum
-from .rod import CASE_TITLES, CASES, tip_positions
+from studio.studies.rod.runs import CASE_TITLES, CASES, tip_positions
 
 
 def write_outputs(out_dir: Path, outcomes, analytic: Sequence[float]) -> dict:
     """peaks.json, CSVs, rod.h5 and PNGs from the finished runs; returns peaks.json's dict."""
     import h5py
 
-    from .run_files import write_json_atomic
+    from studio.studies.run_files import write_json_atomic
 
     out_dir = Path(out_dir)
     exc = [o for o in outcomes if o.params.get("case") in CASES and o.ok]

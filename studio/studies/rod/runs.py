@@ -23,7 +23,7 @@ is the frequency response. Friction takes energy out of every cycle of every mod
 response peaks near the first bending frequency and the higher-mode peaks are much lower.
 
 This module holds the rod, its references, scenes and run tasks
-(:func:`excitation_task`, :func:`response_task`); the study is :mod:`studio.studies.rod_study`.
+(:func:`excitation_task`, :func:`response_task`); the study is :mod:`studio.studies.rod.study`.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ from engine.beam_theory import rod_frequency
 from engine.spectrum import (  # noqa: F401  (part of this study's API)
     match_modes, power_spectrum, spectral_peaks, uniform_part)
 
-from . import api
+from studio.studies import api
 
 # seed table 4.1
 ROD_LENGTH = 0.4

@@ -1,11 +1,11 @@
 """``brush-studio study rod``: bristle dynamics of seed 4.1 and the friction-damped frequency
-response of seed fig. 4.6 (the rod, its scenes and run tasks: :mod:`studio.studies.rod`).
+response of seed fig. 4.6 (the rod, its scenes and run tasks: :mod:`studio.studies.rod.runs`).
 
 Every simulation is one Dask task (``studio.studies.runner.run_many``); outputs in ``-o DIR``:
 ``peaks.json``; ``tip_<case>.csv`` (time, tip x, y, z); ``spectrum_<case>.csv`` (frequency,
 PSD); ``frequency_response.csv``; ``rod.h5`` (all of those arrays); ``tip_trajectories.png``,
 ``spectra.png``, ``frequency_response.png``; ``outcomes.json``; ``runs/`` (one result file
-per simulation); written by :mod:`studio.studies.rod_outputs`.
+per simulation); written by :mod:`studio.studies.rod.outputs`.
 """
 from __future__ import annotations
 
@@ -16,12 +16,12 @@ from typing import Annotated, Literal, Optional, Sequence
 
 from pydantic import Field
 
-from . import api
-from .options import StudyOptions
-from .rod import (CASES, DEFAULT_FRICTION_ANGLE_DEG, DEFAULT_RESPONSE_FORCE,
+from studio.studies import api
+from studio.studies.options import StudyOptions
+from studio.studies.rod.runs import (CASES, DEFAULT_FRICTION_ANGLE_DEG, DEFAULT_RESPONSE_FORCE,
                   DEFAULT_RESPONSE_FREQUENCIES, PRESETS, cantilever_frequencies, case_scene,
                   response_scene)
-from .rod_outputs import write_outputs
+from studio.studies.rod.outputs import write_outputs
 
 
 # ----------------------------------------------------------------------------- study
@@ -30,7 +30,7 @@ def build_specs(cases: Sequence[str], *, n_nodes: Optional[int], free_duration: 
                 response_nodes: int, response_force: float, friction_angle: float,
                 settle_periods: float, measure_periods: float, min_time: float):
     """The RunSpecs of the study: one per excitation case, one per drive frequency."""
-    from .runner import RunSpec
+    from studio.studies.runner import RunSpec
 
     specs = []
     for case in cases:
@@ -38,7 +38,7 @@ def build_specs(cases: Sequence[str], *, n_nodes: Optional[int], free_duration: 
                                   record_interval=record_interval)
         specs.append(RunSpec(run_id=case, scene=scene,
                              params={"case": case, "analysis_start": start},
-                             task="studio.studies.rod:excitation_task"))
+                             task="studio.studies.rod.runs:excitation_task"))
     for f in response_frequencies:
         scene, start = response_scene(f, n_nodes=response_nodes, force=response_force,
                                       friction_angle=friction_angle,
@@ -48,7 +48,7 @@ def build_specs(cases: Sequence[str], *, n_nodes: Optional[int], free_duration: 
                              params={"case": "response", "frequency_hz": float(f),
                                      "measure_start": start, "force": response_force,
                                      "friction_angle": friction_angle},
-                             task="studio.studies.rod:response_task"))
+                             task="studio.studies.rod.runs:response_task"))
     return specs
 
 
@@ -107,7 +107,7 @@ class Options(StudyOptions):
 
 
 def add_parser(study_subparsers) -> None:
-    from .study_command import set_command
+    from studio.studies.study_command import set_command
 
     p = study_subparsers.add_parser(
         "rod", help="bristle dynamics (seed 4.1): tip spectra and the friction-damped "
@@ -120,9 +120,9 @@ def add_parser(study_subparsers) -> None:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from .study_command import report_failures, run_study
+    from studio.studies.study_command import report_failures, run_study
 
-    from .preset_option import PresetChoiceError, chosen
+    from studio.studies.preset_option import PresetChoiceError, chosen
 
     problem = None
     cases = list(dict.fromkeys(options.cases))

@@ -19,17 +19,17 @@ from typing import Annotated, Optional
 
 from pydantic import Field
 
-from . import api
-from .run_files import write_json_atomic, write_outcomes
-from .runner import RunSpec
-from .study_command import report_failures, run_many_from_args, set_command
-from .wedge import (INCREMENT_TOLERANCE, TASK, curve_checks, increment_check,
+from studio.studies import api
+from studio.studies.run_files import write_json_atomic, write_outcomes
+from studio.studies.runner import RunSpec
+from studio.studies.study_command import report_failures, run_many_from_args, set_command
+from studio.studies.wedge.cycle import (INCREMENT_TOLERANCE, TASK, curve_checks, increment_check,
                     numeric_summary)
-from .wedge_protocol import (METHOD_NOTES, ProtocolOptions, protocol_from_options,
+from studio.studies.wedge.protocol import (METHOD_NOTES, ProtocolOptions, protocol_from_options,
                              step_duration)
-from .wedge_scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
+from studio.studies.wedge.scenes import (StudyInputError, apply_resolution, resolve_scenes, safe_id,
                            validate_scenes, wedge_angle_deg)
-from ..exit_codes import EXIT_CANCELLED, EXIT_FAILED
+from studio.exit_codes import EXIT_CANCELLED, EXIT_FAILED
 
 
 class Options(ProtocolOptions):
@@ -125,7 +125,7 @@ run = api.study_run("wedge", _run_study)
 # ----------------------------------------------------------------------------- outputs
 def write_wedge_outputs(out: Path, specs, outcomes, wall: float,
                         increment_outcomes=()) -> int:
-    from .plots import plot_force_depth
+    from studio.studies.plots import plot_force_depth
 
     curves, rows, checks = [], [], {}
     single = len(specs) == 1
