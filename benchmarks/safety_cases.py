@@ -102,7 +102,7 @@ def studio_cases() -> None:
     from fastapi.testclient import TestClient
 
     from studio.service.jobs import JobManager
-    from studio.cli.serve import allowed_hosts
+    from studio.service.hosts import allowed_hosts
     from studio.service.server.studio_routes import make_api_app
     from studio.service.server.ws_guard import guarded_viser_server
 

@@ -20,7 +20,7 @@ from typing import Optional
 
 from studio import __version__
 from studio.web import app
-from studio.cli import export
+from studio.web import export
 from studio.cli import serve as serve_cli
 from studio.cli.commands import cmd_info as _cmd_info, cmd_run as _cmd_run, cmd_validate as _cmd_validate
 from studio.console import err as _err

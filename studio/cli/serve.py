@@ -11,12 +11,12 @@ does not show in the process list. Jobs, results and uploaded meshes live under 
 """
 from __future__ import annotations
 
-import ipaddress
 import os
 import signal
 import sys
 
 from studio.exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from studio.service.hosts import allowed_hosts, is_loopback
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8000
@@ -39,15 +39,6 @@ def _exit_after(seconds: float, code: int) -> None:
     timer = threading.Timer(seconds, end)
     timer.daemon = True
     timer.start()
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def register(subparsers) -> None:
@@ -129,19 +120,6 @@ def register(subparsers) -> None:
     s.add_argument("--log-level", default="info",
                    choices=["critical", "error", "warning", "info", "debug"])
     s.set_defaults(func=_cmd_serve)
-
-
-def allowed_hosts(host: str, extra=()) -> "set[str] | None":
-    """The names a request's Host may give: the bound address, its loopback aliases when it
-    is a loopback address, and ``extra``; None (unchecked) for a wildcard bind without
-    ``extra``."""
-    names = {h for h in extra if h}
-    if host in ("0.0.0.0", "::", ""):
-        return names | {"localhost", "127.0.0.1", "::1"} if names else None
-    names.add(host)
-    if is_loopback(host):
-        names |= {"localhost", "127.0.0.1", "::1"}
-    return names
 
 
 def limits_from_args(args):

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from studio.web.result_frames import ResultFrames
+    from studio.plots.result_frames import ResultFrames
 
 FORCE_COLORS = ("#1f77b4", "#2ca02c", "#9467bd")  # x, y, z components (none is the cursor's)
 CURSOR_COLOR = "#d62728"  # the Results panel's time cursor on every plot

@@ -1,5 +1,6 @@
 """The 3D web studio on viser: the application (``app``), one browser tab's state
 (``session``), the design's fields, scene and view (``fields``, ``scene``, ``view``,
 ``brushes``, ``guides``, ``design_warnings``), the Studies tab's design search
-(``design_search``), the result frames it plays back (``result_frames``) and the tabs
+(``design_search``), the exports for other tools (``export``: a run for ParaView, the brush
+as STL, plotted series as CSV; also the ``brush-studio export`` command) and the tabs
 (``panels``)."""

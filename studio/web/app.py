@@ -37,7 +37,7 @@ from typing import Optional
 from studio.console import print_scene_error
 from studio.exit_codes import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from studio.web.panels.common import STREAM_HZ
-from studio.web.result_frames import ResultFrames  # noqa: F401  (the studio's public name)
+from studio.plots.result_frames import ResultFrames  # noqa: F401  (the studio's public name)
 from studio.web.page_script import send_page_script
 from studio.web.panels.design_history import draft_path, new_draft_id
 from studio.web.session import Session
@@ -256,7 +256,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         print_scene_error(exc, f"cannot open preset {preset!r}")
         return EXIT_BAD_INPUT
     from studio.service.jobs import JobManager
-    from studio.cli.serve import is_loopback
+    from studio.service.hosts import is_loopback
 
     if not is_loopback(host):
         print(f"WARNING: binding {host}: the studio page has no authentication, anyone who "
@@ -268,7 +268,7 @@ def run_studio(host: str = "127.0.0.1", port: int = 8080, preset: Optional[str] 
         print(f"studio: cannot start the job pool in {data_dir}: {type(exc).__name__}: {exc}",
               file=sys.stderr)
         return EXIT_FAILED
-    from studio.cli.serve import allowed_hosts
+    from studio.service.hosts import allowed_hosts
     from studio.service.server.ws_guard import guarded_viser_server
 
     # the page and its WebSocket with the API's Host and Origin rules (DNS rebinding, pages

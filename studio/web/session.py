@@ -24,7 +24,7 @@ from studio.web import view as uv
 from studio.web.panels.common import POLL_S, STUDIES_POLL_S
 from studio.web.panels.compare import ComparePanel
 from studio.web.panels.design import DesignPanel
-from studio.web.result_frames import ResultFrames
+from studio.plots.result_frames import ResultFrames
 from studio.web.panels.results import ResultsPanel
 from studio.web.panels.run import RunPanel
 from studio.web.panels.studies import StudiesPanel

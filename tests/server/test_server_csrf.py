@@ -8,7 +8,7 @@ import socket
 
 from fastapi.testclient import TestClient
 
-from studio.cli.serve import allowed_hosts
+from studio.service.hosts import allowed_hosts
 from studio.service.server import create_app
 
 

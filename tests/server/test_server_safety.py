@@ -7,7 +7,7 @@ from fastapi.testclient import TestClient
 
 from studio.cli.main import main
 from studio.service.jobs import JobManager
-from studio.cli.serve import is_loopback
+from studio.service.hosts import is_loopback
 from studio.service.server import create_app
 
 

@@ -95,7 +95,7 @@ def _upgrade(port: int, host: str, origin) -> int:
 
 def test_the_studio_websocket_refuses_other_origins_and_hosts():
     # bug caught: the studio's WebSocket accepted any Origin (101 for http://evil.example)
-    from studio.cli.serve import allowed_hosts
+    from studio.service.hosts import allowed_hosts
     from studio.service.server.ws_guard import guarded_viser_server
 
     server = guarded_viser_server("127.0.0.1", 0, allowed_hosts("127.0.0.1"), verbose=False)

@@ -10,7 +10,7 @@ import pytest
 
 from studio import presets
 from studio.web.panels import run_cost as rc
-from studio.web.result_frames import color_note
+from studio.plots.result_frames import color_note
 
 
 def _scene(name, **run):

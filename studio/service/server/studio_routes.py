@@ -83,7 +83,7 @@ def make_api_app(jobs, studio, viser_port: int, token: Optional[str] = None,
     """The HTTP API app (:func:`studio.service.server.create_app`) plus the studio's own routes,
     with the headless service's Host and Origin rules for the bound address ``host``
     (``extra_hosts``: more names its Host may give)."""
-    from studio.cli.serve import allowed_hosts
+    from studio.service.hosts import allowed_hosts
     from studio.service.server import create_app
 
     app = create_app(jobs, token=token, allowed_hosts=allowed_hosts(host, extra_hosts))

@@ -157,10 +157,10 @@ class DesignFiles:
         self.mark_loaded(f"it was saved as {name}")
 
     def _on_download_stl(self, event) -> None:
-        """The designed brush as STL (``studio.cli.export.brush_stl``), named after the design."""
+        """The designed brush as STL (``studio.web.export.brush_stl``), named after the design."""
         if event.client is None:
             return
-        from studio.cli.export import brush_stl
+        from studio.web.export import brush_stl
 
         try:
             data = brush_stl(self.scene)

@@ -1,6 +1,6 @@
 """The Results panel: a finished (or stopped) run opened for playback: the time slider, play
 and speed, colour-by and its legend, the plots with their cursor, the HDF5 download. The
-run is read by :class:`~studio.web.result_frames.ResultFrames`, its plots drawn by
+run is read by :class:`~studio.plots.result_frames.ResultFrames`, its plots drawn by
 :mod:`studio.plots.result_plots`. A mixin of :class:`studio.web.app.Studio`."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from studio.web import view as uv
 from studio.plots.result_plots import CURSOR_COLOR, result_figures
 from studio.web.panels.common import (COLOR_MODES, PLOT_ASPECT, PLOT_CURSOR_S, SPEEDS, _md_escape,
                      _safe_name)
-from studio.web.result_frames import ResultFrames, color_note
+from studio.plots.result_frames import ResultFrames, color_note
 
 PLOT_PLACES = ("docked", "pop out", "minimise")
 # px: a plot 460 px wide; the 3D view gets what the control panel (384 px, docked left)
@@ -366,7 +366,7 @@ class ResultsPanel:
                 status.content = f"sent {stem}.zip ({len(data) / 1e6:.2f} MB)"
 
             def _csv(_e) -> None:
-                from studio.cli.export import figures_csv
+                from studio.web.export import figures_csv
 
                 data = figures_csv(self.figures).encode()
                 event.client.send_file_download(f"{stem}-plots.csv", data,

@@ -10,7 +10,7 @@ from studio.web.panels import run_cost as rcost
 from studio.web.panels.common import (NO_JOBS, _fmt_rate, _fmt_s, _md_escape, follow_job, job_of,
                      set_job_choices)
 from studio.web.panels.common import _one_line  # (the Runs list's rows)
-from studio.web.result_frames import ResultFrames
+from studio.plots.result_frames import ResultFrames
 
 
 def _running_text(info) -> str:

@@ -8,7 +8,7 @@ from typing import Optional
 
 import numpy as np
 
-from studio.web import view as uv
+from studio.plots.colors import colormap
 
 
 class ResultFrames:
@@ -90,7 +90,7 @@ class ResultFrames:
                 sample = self._sample("bonds/bending_moment")
                 self.bending_max = float(np.nanmax(sample)) if sample.size else 0.0
                 self.bending_max = max(self.bending_max, float(np.nanmax(m)) if m.size else 0)
-            return uv.colormap(m, self.bending_max)
+            return colormap(m, self.bending_max)
         if mode == "deflection":
             dev = self.deflection(x)
             if dev is None:
@@ -105,7 +105,7 @@ class ResultFrames:
                                                      for k in range(0, n, max(1, n // 50)))
                             if d is not None and d.size), default=0.0)
                 self.deflection_max = max(floor, peak, float(dev.max()) if dev.size else 0.0)
-            return uv.colormap(dev, self.deflection_max)
+            return colormap(dev, self.deflection_max)
         return None
 
     def _sample(self, channel: str) -> np.ndarray:
