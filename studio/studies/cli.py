@@ -12,9 +12,11 @@ from __future__ import annotations
 
 from . import (detumble, docking, fur, optimise, reduce, refinement, rod_study, sensitivity,
                spin_study, wedge_study)
+from . import capture
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
                  reduce, fur, docking, optimise)
+STUDY_MODULES += (capture,)
 
 
 def register(subparsers) -> None:
