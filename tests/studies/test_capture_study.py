@@ -63,6 +63,15 @@ def test_a_hold_shorter_than_the_hold_time_does_not_count_and_the_last_stretch_d
     assert not out["captured"] and not out["lost"]
 
 
+def test_a_still_target_is_captured_only_once_the_brushes_touch_it():
+    # below every threshold from the start, but the jaws reach it at 0.8 s: held from then;
+    # never touched (None): never held
+    zeros = np.zeros_like(T)
+    out = capture(T, zeros, zeros, _inside(), first_contact=0.8, **LIMITS)
+    assert out["captured"] and out["time_to_capture"] == pytest.approx(0.8)
+    assert not capture(T, zeros, zeros, _inside(), first_contact=None, **LIMITS)["captured"]
+
+
 def test_speed_alone_can_refuse_a_capture():
     speed = np.full_like(T, 3e-3)          # 3 mm/s > 2 mm/s, the rate is zero
     assert not capture(T, speed, np.zeros_like(T), _inside(), **LIMITS)["captured"]
@@ -134,3 +143,34 @@ def test_free_space_grip_conserves_linear_and_angular_momentum(tmp_path):
     l_scale = p_scale * 0.2 + np.linalg.norm(l0)
     assert np.linalg.norm(p1 - p0) / p_scale < 1e-9
     assert np.linalg.norm(l1 - l0) / l_scale < 1e-9
+
+
+# ----------------------------------------------------------------------------- the study
+def test_tiny_capture_study_writes_its_outputs_and_a_target_outside_the_jaws_is_not_captured(
+        tmp_path):
+    # two still targets (no spin, so the outcome depends on the geometry alone): centred
+    # between the jaws, and 150 mm across them along z (its faces span 100..200 mm, the
+    # brushes' tips at most 20 + 5 mm from the axis: the brushes never reach it). The
+    # centred one is held from the brushes' first touch; the other is never touched nor
+    # between the jaws, so never captured. Bugs caught: a criterion that ignores where the
+    # target is, or counts frames before the jaws arrive, or a missing/garbled output.
+    from studio.studies.capture import Options, run
+
+    options = Options(spins=[0.0], offsets=[0.0, 150.0], duration=1.0, hold=0.2,
+                      nodes=3, workers=1, no_progress=True)
+    result = run(options, tmp_path)
+    assert result.exit_code == 0
+    for name in ("capture.csv", "capture.png", "summary.json"):
+        assert (tmp_path / name).is_file(), name
+    rows = {r["run_id"]: r for r in csv.DictReader((tmp_path / "capture.csv").open())}
+    centred, outside = rows["w0_d0"], rows["w0_d150"]
+    assert centred["captured"] == "True" and outside["captured"] == "False"
+    assert float(centred["time_to_capture"]) == pytest.approx(
+        float(centred["first_contact"]))
+    assert outside["first_contact"] == "" and float(outside["peak_target_force"]) == 0.0
+    assert float(centred["peak_target_force"]) > 0.0
+    # the servos squeeze the target from both sides: the chaser's jaw mounts carry that
+    assert float(centred["peak_chaser_force"]) > 0.0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["runs"] == 2 and summary["captured"] == 1
+    assert len(list((tmp_path / "runs").glob("*.h5"))) == 2

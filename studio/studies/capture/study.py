@@ -93,7 +93,8 @@ def geometry(scene: dict) -> dict:
     brush = next(b for b in scene["brushes"] if b.get("mount") == "jaw_right")
     reach = brush["bristle_length"] + brush["tip_radius"]
     tips = jaw["pose"]["position"][0] - jaw["shape"]["size"][0] / 2 - reach
-    return {"between_radius": half, "clearance": tips - target["pose"]["position"][0] - half}
+    x_target = target.get("pose", {}).get("position", [0.0, 0.0, 0.0])[0]
+    return {"between_radius": half, "clearance": tips - x_target - half}
 
 
 def capture_scene(spin: float, axis, offset: float, offset_axis: str, *, preset: str,
