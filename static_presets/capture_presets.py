@@ -41,7 +41,7 @@ TARGET = {"size": 0.1, "mass": 1.33, "spin": 10 * DEG, "axis": (1.0, 1.0, 1.0)}
 CHASER = {"size": 0.2, "mass": 12.0, "kp": 50.0, "kpa": 5.0, "sample_interval": 0.01,
           "max_force": 2.0, "max_torque": 0.5}
 GAP_Y = 0.02
-# The jaws: aluminium plates 60 x 60 x 5 mm of 0.2 kg (plate and finger mechanism, an
+# The jaws: aluminium plates 60 x 60 x 5 mm of 0.5 kg (plate and finger mechanism, an
 # assumption) either side of the target along x; the brushes are the detumble presets'
 # silicone bristles (the seed's scaled up BRUSH_SCALE times: 165 mm, 10 -> 5 mm diameter),
 # 3 x 3 at 20 mm pitch on each jaw
@@ -49,15 +49,19 @@ BRUSH_SCALE = 5.0
 JAW = {"size": (0.005, 0.06, 0.06), "mass": 0.5}
 GRID, PITCH, N_NODES = 3, 0.02, 4
 # The jaws start with the undeformed tips OPEN_GAP outside the target's faces and close to
-# where they would reach INTERFERENCE inside them; their servos (assumed): kp / kd = 4/s sets
-# the closing rate (an overdamped exponential approach, damping ratio 2.5; 100 mm/s at the
-# start), kp the jaws' stiffness against the bristles; kd h / m = 0.2 keeps the sampled
-# loop stable
+# where they would reach INTERFERENCE inside them. Their servos (assumed values, chosen by
+# trial, docs/mission.md): kp / kd = 4/s sets the closing (overdamped, damping ratio 2.5;
+# kd h / m = 0.2 keeps the sampled loop stable); max_force 0.2 N caps the squeeze below the
+# 9 bristles' buckling load; the attitude loop is a soft, damped wrist (kpa 0.01 N m/rad,
+# kda 0.03 N m s/rad) that lets a jaw tilt with the target and damps its rocking. Measured
+# at 10 deg/s: a stiff wrist (kpa 2, kda 0.1) or a 2 N squeeze left the target spinning
+# at 15-20 deg/s after 2-3 s (the squeezed, tilted cube rocks on the bristles as on a
+# spring, and buckling bristles pump it); this one brought it to about 1 deg/s
 OPEN_GAP = 0.02
 INTERFERENCE = 0.005
-JAW_SERVO = {"kp": 200.0, "kd": 50.0, "max_force": 2.0, "kpa": 2.0, "kda": 0.1,
+JAW_SERVO = {"kp": 200.0, "kd": 50.0, "max_force": 0.2, "kpa": 0.01, "kda": 0.03,
              "max_torque": 0.2, "sample_interval": 0.002}
-DURATION, RECORD_INTERVAL = 2.0, 0.01
+DURATION, RECORD_INTERVAL = 4.0, 0.01
 
 
 def _box_inertia(mass, size):
