@@ -52,7 +52,8 @@ GRID, PITCH, N_NODES = 3, 0.02, 4
 # where they would reach INTERFERENCE inside them. Their servos (assumed values, chosen by
 # trial, docs/mission.md): kp / kd = 4/s sets the closing (overdamped, damping ratio 2.5;
 # kd h / m = 0.2 keeps the sampled loop stable); max_force 0.2 N caps the squeeze below the
-# 9 bristles' buckling load; the attitude loop is a soft, damped wrist (kpa 0.01 N m/rad,
+# 9 bristles' Euler buckling load as fixed-free columns (pi^2 E I / (4 L^2) with the mean
+# radius: about 0.04 N each, 0.34 N); the attitude loop is a soft, damped wrist (kpa 0.01 N m/rad,
 # kda 0.03 N m s/rad) that lets a jaw tilt with the target and damps its rocking. Measured
 # at 10 deg/s: a stiff wrist (kpa 2, kda 0.1) or a 2 N squeeze left the target spinning
 # at 15-20 deg/s after 2-3 s (the squeezed, tilted cube rocks on the bristles as on a
