@@ -57,7 +57,8 @@ GRID, PITCH, N_NODES = 3, 0.02, 4
 # kda 0.03 N m s/rad) that lets a jaw tilt with the target and damps its rocking. Measured
 # at 10 deg/s: a stiff wrist (kpa 2, kda 0.1) or a 2 N squeeze left the target spinning
 # at 15-20 deg/s after 2-3 s (the squeezed, tilted cube rocks on the bristles as on a
-# spring, and buckling bristles pump it); this one brought it to about 1 deg/s
+# spring, and buckling bristles pump it); this one took it to 0.2 deg/s at 2.75 s, after
+# which the wound bristles sprang it back (4.4 deg/s at 4 s: docs/mission.md)
 OPEN_GAP = 0.02
 INTERFERENCE = 0.005
 JAW_SERVO = {"kp": 200.0, "kd": 50.0, "max_force": 0.2, "kpa": 0.01, "kda": 0.03,
