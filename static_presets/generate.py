@@ -13,7 +13,8 @@ One module per preset family, beside this file: ``seed_values.py`` (what they sh
 thesis's materials, friction angles and brush), ``rod_presets.py`` (seed 4.1),
 ``wedge_presets.py`` (4.2), ``spin_presets.py`` (4.3, appendix H), ``impact_presets.py``
 (chapter 5: fur, plate, gripper), ``detumble_presets.py`` (the mission, issue 15) and
-``docking_presets.py`` (brush-assisted docking, issue 27).
+``docking_presets.py`` (brush-assisted docking, issue 27) and ``capture_presets.py``
+(capture with a gripper brush on orbit, issue 27).
 """
 from __future__ import annotations
 
@@ -53,11 +54,19 @@ def _docking_presets() -> list[dict]:
                                               seed.seed_brush, seed.Q_Z_TO_PLUS_X)
 
 
+def _capture_presets() -> list[dict]:
+    """Capture with a gripper brush on orbit (issue 27; ``capture_presets.py``)."""
+    seed = _family("seed_values")
+    return _family("capture_presets").presets(seed.SILICONE, seed.PHI_SIL_SIL,
+                                              seed.seed_brush, seed.Q_Z_TO_PLUS_X,
+                                              seed.Q_Z_TO_MINUS_X)
+
+
 def all_presets() -> dict[str, dict]:
     _family("seed_values")  # (first: the families import it)
     scenes = [*_family("rod_presets").presets(), *_family("wedge_presets").presets(),
               *_family("spin_presets").presets(), *_family("impact_presets").presets(),
-              *_detumble_presets(), *_docking_presets()]
+              *_detumble_presets(), *_docking_presets(), *_capture_presets()]
     return {s["name"]: s for s in scenes}
 
 

@@ -14,9 +14,11 @@ from . import detumble, docking, fur, optimise, reduce, refinement, sensitivity
 from .rod import study as rod_study
 from .spin import study as spin_study
 from .wedge import study as wedge_study
+from . import capture
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
                  reduce, fur, docking, optimise)
+STUDY_MODULES += (capture,)
 
 
 def register(subparsers) -> None:
