@@ -31,8 +31,10 @@ from .errors import SceneError
 from .layout import quat_to_matrix
 from .kernels.mesh_contact import initial_overlap
 from .spec import Scene
-from .state import (ACC_SIZE, STAGES, Bodies, BodyList, Bonds, Flags, Loads, Mission, Nodes,
-                    PairList, Roots, Tables, assembled_stages)
+from .state import (ACC_SIZE, ACC_STEPS, ACC_TIME, LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING,
+                    LIMIT_NODE_STEP, LIMIT_OVERLAP, LIMIT_SKIN, LIMITS_SIZE, STAGES, Bodies,
+                    BodyList, Bonds, Flags, Loads, Mission, Nodes, PairList, Roots, Tables,
+                    assembled_stages)
 from .timestep import MAX_BODY_STEP_RATIO, choose_dt, equalizing_scales
 
 MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
@@ -84,11 +86,11 @@ class System:
 
     @property
     def time(self) -> float:
-        return float(self.acc[11])
+        return float(self.acc[ACC_TIME])
 
     @property
     def steps(self) -> int:
-        return int(self.acc[12])
+        return int(self.acc[ACC_STEPS])
 
     @property
     def n_nodes(self) -> int:
@@ -138,11 +140,13 @@ def build(scene: Scene) -> System:
     skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)
     mission = build_mission(scene, orbit_n, body_part.names, body_part.shape_to_body)
     stages = assembled_stages(flags)
-    # the step loop's limits: [max overlap / radius, max node step / radius, max body step
-    # (m), skin (m), local damping]
-    limits = np.array([MAX_OVERLAP_RATIO, MAX_NODE_STEP_RATIO,
-                       MAX_BODY_STEP_RATIO * (r_min if bristles.nodes.rad.size else 1.0), skin,
-                       scene.environment.local_damping])
+    # the step loop's limits (engine.state.LIMIT_*)
+    limits = np.zeros(LIMITS_SIZE)
+    limits[LIMIT_OVERLAP] = MAX_OVERLAP_RATIO
+    limits[LIMIT_NODE_STEP] = MAX_NODE_STEP_RATIO
+    limits[LIMIT_BODY_STEP] = MAX_BODY_STEP_RATIO * (r_min if bristles.nodes.rad.size else 1.0)
+    limits[LIMIT_SKIN] = skin
+    limits[LIMIT_LOCAL_DAMPING] = scene.environment.local_damping
     if needs.mesh_mesh:
         _check_mesh_overlap(body_part, warnings)
     system = System(scene=scene, nodes=bristles.nodes, bonds=bristles.bonds,
@@ -328,7 +332,7 @@ def initial_lists(system: System) -> None:
     from .kernels.stepper import rebuild_lists
     while True:
         code = rebuild_lists(system.nodes, system.bonds, system.bodies, system.pairs,
-                             system.body_pairs, system.flags, system.limits[3])
+                             system.body_pairs, system.flags, system.limits[LIMIT_SKIN])
         if code == OK:
             return
         which = 1 if code == 1 else 2

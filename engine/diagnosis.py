@@ -7,7 +7,7 @@ from typing import Optional
 from .build import System
 from .errors import InstabilityError
 from .state import (FAIL_BODY_SPEED, FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
-                    FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY)
+                    FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, LIMIT_OVERLAP)
 
 
 def dt_cause(system: System) -> Optional[str]:
@@ -67,7 +67,7 @@ def _instability_by_code(system: System, code: int) -> InstabilityError:
                                 f"{system.segment_label(int(e[0]))} and "
                                 f"{system.segment_label(int(e[2]))}", t,
                                 f"The capsules overlap by {e[1]:.2f} of the smaller radius "
-                                f"(limit {system.limits[0]:g}): the contact is too soft for the "
+                                f"(limit {system.limits[LIMIT_OVERLAP]:g}): the contact is too soft for the "
                                 f"load or the step too large; {lower_dt}. {soft_note}load the "
                                 f"brush more gently or use stiffer or thicker bristles.",
                                 detail=f"overlap ratio {e[1]:.3g}")
@@ -82,7 +82,7 @@ def _instability_by_code(system: System, code: int) -> InstabilityError:
                                 f"{system.segment_label(int(e[0]))} against body "
                                 f"{system.body_names[int(e[2])]!r}", t,
                                 f"The capsule penetrates the body by {e[1]:.2f} of its radius "
-                                f"(limit {system.limits[0]:g}): the body pushes harder or "
+                                f"(limit {system.limits[LIMIT_OVERLAP]:g}): the body pushes harder or "
                                 f"faster than the contact can resist at this step; "
                                 f"{lower_dt}. {soft_note}slow the body down, or use stiffer "
                                 f"or thicker bristles.",

@@ -57,6 +57,14 @@ Flags = namedtuple("Flags", [
     "mounted_roots", "gravity", "loads", "local_damping", "track_energy", "check_every",
     "time_every", "orbit", "controllers", "external_loads"])
 
+# the step loop's limits (float64 array ``System.limits``, built by ``engine.build``)
+LIMIT_OVERLAP = 0        # largest contact overlap / node radius before InstabilityError
+LIMIT_NODE_STEP = 1      # largest node displacement in one step / node radius
+LIMIT_BODY_STEP = 2      # largest body displacement in one step, m
+LIMIT_SKIN = 3           # the neighbour lists' skin, m
+LIMIT_LOCAL_DAMPING = 4  # Cundall's local damping coefficient alpha
+LIMITS_SIZE = 5
+
 # accumulators (float64 array ``acc``)
 ACC_HINGE_DISS = 0   # must stay 0: bodies_half_kick writes acc[0]
 ACC_DISSIPATED = 1

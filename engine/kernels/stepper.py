@@ -31,6 +31,8 @@ from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_his
                        scatter_bristle_bristle, segment_bounds)
 from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot
+from ..state import (LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING, LIMIT_NODE_STEP, LIMIT_OVERLAP,
+                     LIMIT_SKIN)
 from ..state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_MAX_OVERLAP,
                      ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS, ACC_STEPS, ACC_TIME,
                      ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED, FAIL_NODE_SPEED,
@@ -315,10 +317,10 @@ def check_state(nd, bd, fl, acc, err, dt, limits, time):
             return FAIL_NONFINITE_NODE
         if nd.inv_mass[n] > 0.0:
             sp = math.sqrt(nd.v[n, 0] ** 2 + nd.v[n, 1] ** 2 + nd.v[n, 2] ** 2)
-            if sp * dt > limits[1] * nd.rad[n]:
+            if sp * dt > limits[LIMIT_NODE_STEP] * nd.rad[n]:
                 err[0] = n
                 err[1] = sp * dt
-                err[2] = limits[1] * nd.rad[n]
+                err[2] = limits[LIMIT_NODE_STEP] * nd.rad[n]
                 return FAIL_NODE_SPEED
     for k in range(bd.pos.shape[0]):
         for a in range(3):
@@ -332,10 +334,10 @@ def check_state(nd, bd, fl, acc, err, dt, limits, time):
             sp = math.sqrt(bd.v[k, 0] ** 2 + bd.v[k, 1] ** 2 + bd.v[k, 2] ** 2)
             om = math.sqrt(bd.w[k, 0] ** 2 + bd.w[k, 1] ** 2 + bd.w[k, 2] ** 2)
             step = (sp + om * bd.bound_r[k]) * dt
-            if step > limits[2]:
+            if step > limits[LIMIT_BODY_STEP]:
                 err[0] = k
                 err[1] = step
-                err[2] = limits[2]
+                err[2] = limits[LIMIT_BODY_STEP]
                 return FAIL_BODY_SPEED
     return OK
 
@@ -375,7 +377,7 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
         acc[ACC_N_BB] = stats[0]
         acc[ACC_E_BB] = stats[1]
         acc[ACC_DISSIPATED] += stats[2]
-        if stats[3] > limits[0]:
+        if stats[3] > limits[LIMIT_OVERLAP]:
             p = int(stats[4])
             err[0] = pl.a[p]
             err[1] = stats[3]
@@ -391,7 +393,7 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
         acc[ACC_N_BODY] = stats[0]
         acc[ACC_E_BODY] = stats[1]
         acc[ACC_DISSIPATED] += stats[2]
-        if stats[3] > limits[0]:
+        if stats[3] > limits[LIMIT_OVERLAP]:
             c = int(stats[4])
             err[0] = bl.s[c]
             err[1] = stats[3]
@@ -408,10 +410,10 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
         acc[ACC_N_BODYBODY] = stats[0]
         acc[ACC_E_BODYBODY] = stats[1]
         acc[ACC_DISSIPATED] += stats[2]
-        if stats[3] > limits[0]:
+        if stats[3] > limits[LIMIT_OVERLAP]:
             err[0] = -1
             err[1] = stats[3]
-            err[2] = limits[0]
+            err[2] = limits[LIMIT_OVERLAP]
             return FAIL_OVERLAP_BODYBODY
     if timed:
         c7 = _clock()
@@ -434,7 +436,7 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
                                            dt)
     if fl.local_damping:
         acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
-                                             limits[4], dt)
+                                             limits[LIMIT_LOCAL_DAMPING], dt)
     if fl.track_energy and (fl.bristle_body or fl.mounted_roots):
         # work done by whatever drives kinematic bodies against the contact forces
         for k in range(bd.pos.shape[0]):
@@ -455,7 +457,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
     and the running energy/contact totals; ``limits`` = [max overlap / radius, max node step
     / radius, max body step (m), skin (m), local damping]; ``ms`` the mission layer (orbit,
     controllers, external loads on bodies). Returns (code, steps done)."""
-    skin = limits[3]
+    skin = limits[LIMIT_SKIN]
     orbit_n = ms.orbit[0] if fl.orbit else 0.0
     stats = np.zeros(5)
     if acc[ACC_STEPS] == 0:

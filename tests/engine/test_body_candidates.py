@@ -15,6 +15,7 @@ from engine.kernels.body_contacts import BSLOT, deep_closest, nearest_triangle
 from engine.errors import InstabilityError
 from engine import spec_bodies
 from engine.meshes import shape_mesh
+from engine.state import LIMIT_SKIN
 
 ROOT = Path(__file__).resolve().parents[2]
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
@@ -51,7 +52,7 @@ def _candidates(system):
 def _reach(system):
     """Per segment: the larger end radius plus the list's skin (the capsule the list keeps)."""
     nd, bn = system.nodes, system.bonds
-    return np.maximum(nd.rad[bn.i], nd.rad[bn.j]) + float(system.limits[3])
+    return np.maximum(nd.rad[bn.i], nd.rad[bn.j]) + float(system.limits[LIMIT_SKIN])
 
 
 def _distance(points, mesh):
