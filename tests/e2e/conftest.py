@@ -211,6 +211,21 @@ def wait_text(page, text: str, timeout: float = 30.0) -> None:
     raise AssertionError(f"{text!r} not shown on the page within {timeout} s")
 
 
+def select(page, label: str, value: str) -> None:
+    """Choose ``value`` in the visible dropdown labelled ``label`` (viser's combobox)."""
+    box = page.get_by_label(label, exact=True).filter(visible=True)
+    for attempt in range(3):  # (a busy page can miss the click that opens the list)
+        box.click(force=True)
+        try:
+            page.get_by_role("option", name=value, exact=True).click(force=True,
+                                                                     timeout=10_000)
+            return
+        except Exception:
+            page.keyboard.press("Escape")
+            if attempt == 2:
+                raise
+
+
 def click(page, name: str, role: str = "button") -> None:
     """Click a button (or tab) by its accessible name with a DOM click: viser's panel
     handles pointer events itself, and synthetic mouse clicks at the element's coordinates do

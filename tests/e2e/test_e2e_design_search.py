@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from conftest import click, open_preset, wait_text
+from conftest import click, select, open_preset, wait_text
 
 KEY_DELAY_MS = 100  # a person typing, each key its own update
 DOC_VIEWPORT = {"width": 1400, "height": 900}  # the docs' screenshots (docs/studio.md)
@@ -30,21 +30,6 @@ def _doc_shot(page, shot, name: str, scroll_to=None) -> None:
     page.set_viewport_size({"width": 1100, "height": 800})
 
 
-def _select(page, label: str, value: str) -> None:
-    """Choose ``value`` in the visible dropdown labelled ``label``."""
-    box = page.get_by_label(label, exact=True).filter(visible=True)
-    for attempt in range(3):  # (a busy page can miss the click that opens the list)
-        box.click(force=True)
-        try:
-            page.get_by_role("option", name=value, exact=True).click(force=True,
-                                                                     timeout=10_000)
-            return
-        except Exception:
-            page.keyboard.press("Escape")
-            if attempt == 2:
-                raise
-
-
 def _type_into(page, label: str, text: str) -> None:
     box = page.get_by_label(label, exact=True).filter(visible=True)
     box.wait_for(state="visible", timeout=30_000)
@@ -61,13 +46,13 @@ def _studies(studio) -> dict:
 def _to_optimise(page, studio) -> None:
     click(page, "Studies", role="tab")
     wait_text(page, "Start study")
-    _select(page, "study", "optimise")
+    select(page, "study", "optimise")
     studio.wait_state(lambda s: s["studies"]["study"] == "optimise", what="optimise chosen")
     wait_text(page, "Add variable")
 
 
 def _add_variable(page, studio, title: str, path: str) -> list:
-    _select(page, "design field", title)
+    select(page, "design field", title)
     page.wait_for_timeout(300)
     for attempt in range(3):
         click(page, "Add variable")
@@ -213,7 +198,7 @@ def test_e2e_search_progress_chart_popout_and_trial_design(studio, page, shot,
     # load the best trial's design into the design view
     best = s["best"]
     label = next(t for t in s["trials"] if t.startswith(f"trial {best['trial']}:"))
-    _select(page, "trial", label)
+    select(page, "trial", label)
     page.wait_for_timeout(500)
     click(page, "Load trial's design")
     r = best["params"]["brushes.0.root_radius"]

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from conftest import click, wait_text
+from conftest import click, select, wait_text
 
 
 def _set_text(page, label: str, text: str) -> None:
@@ -15,20 +15,6 @@ def _set_text(page, label: str, text: str) -> None:
     field = page.locator(f'xpath=//label[normalize-space()="{label}"]/following::input[1]')
     field.fill(text, force=True)
     field.press("Tab")
-
-
-def _select(page, label: str, value: str) -> None:
-    """Choose ``value`` in viser's dropdown labelled ``label`` (a combobox input)."""
-    box = page.get_by_label(label, exact=True)
-    for attempt in range(3):  # (a busy page can miss the click that opens the list)
-        box.click(force=True)
-        try:
-            page.get_by_role("option", name=value, exact=True).click(force=True,
-                                                                     timeout=10_000)
-            return
-        except Exception:
-            if attempt == 2:
-                raise
 
 
 def _wait_studies(studio, predicate, timeout: float, what: str) -> dict:
@@ -174,7 +160,7 @@ def test_e2e_study_chart_pops_out_readable(studio, page, shot):
 def test_e2e_convergence_study_shows_table_and_plot(studio, page, shot):
     click(page, "Studies", role="tab")
     wait_text(page, "Start study")
-    _select(page, "study", "convergence")
+    select(page, "study", "convergence")
     studio.wait_state(lambda s: s["studies"]["study"] == "convergence", what="convergence")
     page.wait_for_timeout(500)
     click(page, "Start study")
