@@ -176,7 +176,10 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     api.check_cancel()
     data = read_detumble(h5_path)
     out = analyse(data, params["threshold"], params["stress_limit"],
-                  isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0))
+                  isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0),
+                  sn_curve=params.get("sn_curve"))
+    if "fatigue" in data:
+        write_fatigue_table(Path(h5_path).with_suffix(".fatigue.csv"), data["fatigue"])
     s = result.summary
     wall = s.get("wall_s") or 0.0
     out.update(status=result.status if result.status in ("completed", "stopped")
@@ -184,6 +187,21 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
                n_nodes=system.n_nodes,
                node_steps_per_s=(s.get("steps") or 0) * system.n_nodes / wall if wall else None)
     return out
+
+
+def write_fatigue_table(path: Path, f: dict) -> None:
+    """One row per bristle: counted stress cycles, largest amplitude (MPa) and, with an S–N
+    curve, Miner's damage of the run."""
+    import csv
+
+    damage = f.get("bristle_damage")
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["bristle", "cycles", "amplitude_max_mpa"]
+                   + (["miner_damage"] if damage is not None else []))
+        for b, (n, a) in enumerate(zip(f["bristle_cycles"], f["bristle_amplitude"])):
+            w.writerow([b, f"{n:g}", f"{a / 1e6:.6g}"]
+                       + ([f"{damage[b]:.6g}"] if damage is not None else []))
 
 
 # ----------------------------------------------------------------------------- study
@@ -198,7 +216,7 @@ def build_specs(options: "Options", grid: dict):
                   "tilt_deg": tilt, "tumble": tumble, "offset": off,
                   "length_mm": length, "diameter_mm": diameter,
                   "threshold": options.threshold, "isp": options.isp,
-                  "drift_time": options.drift_time,
+                  "drift_time": options.drift_time, "sn_curve": options.sn_curve,
                   "stress_limit": grid["stress_limit"]}
         run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
             ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
@@ -331,6 +349,13 @@ class Options(StudyOptions):
                                    "hydrazine monopropellant class): the propellant figures, "
                                    "for per-axis and gimballed thrusters",
                        json_schema_extra={"metavar": "S", "unit": "s"})
+    sn_curve: Optional[str] = Field(
+        None, description="S-N points of the bristle material, stress amplitude MPa : cycles "
+                          "to failure, e.g. 5:1e4,2:1e6 (at least two; log-log interpolation, "
+                          "extrapolation flagged): each run's Miner damage of its worst "
+                          "bristle and the runs it survives. No default: no material data "
+                          "is invented",
+        json_schema_extra={"metavar": "MPA:CYCLES,..."})
     drift_time: float = Field(3600.0, gt=0,
                               description="how long the debris's free CW drift after the run "
                                           "is followed for the minimum chaser-debris distance "
@@ -378,6 +403,10 @@ def _grid(options: Options) -> dict:
         raise ValueError(f"--stress-limit: no default for bristle material {material!r}; "
                          f"give it in Pa")
     grid["stress_limit"] = float(limit)
+    if options.sn_curve:
+        from .fatigue import parse_sn_curve
+
+        parse_sn_curve(options.sn_curve)  # ValueError naming what is wrong, before any run
     return grid
 
 

@@ -63,6 +63,22 @@ def peak_bending_stress(res) -> np.ndarray:
     return bending_stress(moment, r_bond[None, :]).max(axis=1)
 
 
+def bristle_bending_stress(res) -> np.ndarray | None:
+    """(frames, bristles): per frame, each bristle's largest bending stress over its bonds,
+    Pa (the fatigue history, :mod:`studio.studies.fatigue`); None without the channels."""
+    from .fatigue import bond_bristles, bristle_series
+
+    if "bonds/bending_moment" not in res.channels() or "nodes/radius" not in res.statics():
+        return None
+    bonds = np.asarray(res.static("bonds/nodes"))
+    radius = np.asarray(res.static("nodes/radius"))
+    first = np.asarray(res.static("bristles/first_node"))[:-1]  # (n_bristles + 1,): offsets
+    r_bond = 0.5 * (radius[bonds[:, 0]] + radius[bonds[:, 1]])
+    stress = bending_stress(np.asarray(res.series("bonds/bending_moment"), float),
+                            r_bond[None, :])
+    return bristle_series(stress, bond_bristles(bonds[:, 0], first), len(first))
+
+
 def read_detumble(h5_path: Path) -> dict:
     """The series of a detumble run (time, target w and L, loads, controller channels,
     bending stress) as arrays, and the scene facts they need."""
@@ -104,6 +120,7 @@ def read_detumble(h5_path: Path) -> dict:
         d["hold_offset"] = np.asarray(c.position, float)
         d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
         d["peak_stress"] = peak_bending_stress(res)
+        d["bristle_stress"] = bristle_bending_stress(res)
         d["material"] = brush.material
         orbit = scene.environment.orbit
         d["mean_motion"] = orbit.n if orbit is not None else 0.0
@@ -111,8 +128,10 @@ def read_detumble(h5_path: Path) -> dict:
 
 
 def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = 220.0,
-            drift_time: float = 3600.0) -> dict:
-    """The run's summary (JSON-able) from :func:`read_detumble`'s arrays."""
+            drift_time: float = 3600.0, sn_curve: str | None = None) -> dict:
+    """The run's summary (JSON-able) from :func:`read_detumble`'s arrays; with the bristles'
+    stress histories, their fatigue figures (``sn_curve``: the S–N points,
+    :func:`studio.studies.fatigue.parse_sn_curve`)."""
     t = d["time"]
     speed = np.linalg.norm(d["omega"], axis=1)
     L = np.linalg.norm(d["angular_momentum"], axis=1)
@@ -143,7 +162,23 @@ def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = 220.
         "material": d["material"]}
     out.update(controller_honesty(d))
     out.update(designer_figures(d, isp=isp, drift_time=drift_time))
+    out.update(fatigue_figures(d, sn_curve))
     return out
+
+
+def fatigue_figures(d: dict, sn_curve: str | None = None) -> dict:
+    """The run's fatigue figures (the worst bristle's cycles, amplitude, Miner damage and
+    runs to failure: :func:`studio.studies.fatigue.fatigue`); the per-bristle lists stay
+    in ``d["fatigue"]`` for the per-bristle table."""
+    from .fatigue import fatigue, parse_sn_curve
+
+    keys = ("fatigue_cycles_max", "fatigue_amplitude_max", "fatigue_damage_max",
+            "runs_to_failure", "sn_extrapolated")
+    if d.get("bristle_stress") is None:
+        return dict.fromkeys(keys)
+    f = fatigue(d["bristle_stress"], parse_sn_curve(sn_curve) if sn_curve else None)
+    d["fatigue"] = f
+    return {k: f[k] for k in keys}
 
 
 def controller_honesty(d: dict) -> dict:

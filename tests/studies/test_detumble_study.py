@@ -147,10 +147,21 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
     out = tmp_path / "study"
     code = main(["study", "detumble", "-o", str(out), "--spins", "5,10", "--rows", "3",
                  "--columns", "3", "--nodes", "3", "--duration", "1.6",
-                 "--record-interval", "0.05", "--workers", "1", "--no-progress"])
+                 "--record-interval", "0.05", "--workers", "1", "--no-progress",
+                 "--sn-curve", "5:1e4,0.5:1e7"])
     assert code == 0
     summary = json.loads((out / "detumble_summary.json").read_text())["runs"]
     assert [r["spin_deg"] for r in summary] == [5.0, 10.0]
+    for r in summary:
+        # fatigue (issue 25 item 6): the stresses are >= 0, so no amplitude (half a range)
+        # exceeds the peak stress, and the worst bristle's damage is what runs_to_failure
+        # inverts; one row per bristle (3 x 3) in the run's table
+        assert 0 < r["fatigue_amplitude_max"] <= r["peak_bending_stress"] * (1 + 1e-6)
+        assert r["fatigue_cycles_max"] >= 0.5
+        assert r["runs_to_failure"] == pytest.approx(1 / r["fatigue_damage_max"])
+        table = (out / "runs" / f"{r['run_id']}.fatigue.csv").read_text().splitlines()
+        assert table[0] == "bristle,cycles,amplitude_max_mpa,miner_damage"
+        assert len(table) == 1 + 9
     for r in summary:
         assert r["status"] == "completed"
         assert r["omega0"] == pytest.approx(r["spin_deg"] * DEG, rel=1e-12)
@@ -177,7 +188,8 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
 
 @pytest.mark.parametrize("argv, text", [
     (["--sizes", "0"], "--sizes"), (["--threshold", "1.5"], "--threshold"),
-    (["--preset", "gripper"], "not a detumble scene"), (["--spins", "x"], "--spins")])
+    (["--preset", "gripper"], "not a detumble scene"), (["--spins", "x"], "--spins"),
+    (["--sn-curve", "5:1e4"], "--sn-curve")])
 def test_bad_options_are_refused_with_exit_2(tmp_path, capsys, argv, text):
     assert main(["study", "detumble", "-o", str(tmp_path), *argv]) == 2
     assert text in capsys.readouterr().err
