@@ -51,7 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import engine  # noqa: E402
-from engine.beam_theory import circle_second_moment  # noqa: E402
+from engine.analysis.beam_theory import circle_second_moment  # noqa: E402
 from studio.studies import convergence as cv  # noqa: E402
 
 PRESETS = ROOT / "static_presets"

@@ -75,7 +75,7 @@ def main() -> None:
     c0 = time.process_time()
     engine.run(system, until=system.time + a.steps * system.dt, output=out)
     cpu = time.process_time() - c0
-    from engine.observables import root_reactions
+    from engine.stepping.observables import root_reactions
     fz = float(root_reactions(system)["brush"][0][2])
     print(f"engine {engine.__file__}")
     print(f"dt {system.dt:.3e} s, {system.n_bristles * 4} segments, steps to press "

@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 import analytic  # noqa: E402
 import test_verification_beams as beams  # noqa: E402
 import test_verification_bodies as bodies  # noqa: E402
-from engine.spectrum import peak_frequencies  # noqa: E402
+from engine.analysis.spectrum import peak_frequencies  # noqa: E402
 
 
 def timed(fn, *args):

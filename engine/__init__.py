@@ -1,6 +1,13 @@
 """Brush Studio's DEM engine: bristles as chains of beam-bonded nodes, rigid debris bodies
 from triangle meshes, Cundall-Strack contacts with friction and history, HDF5 results.
 
+Its folders follow the data: ``model/`` (the scene model: spec, layout, shapes, motions, the
+reduced law's file), ``assembly/`` (scene -> arrays: bristles, bodies, contacts, loads, the
+time step and the cost estimate), ``stepping/`` (the run loop in Python around the compiled
+step, what it records and checks), ``kernels/`` (the numba step itself, typed on the bundles
+of ``state.py``), ``io/`` (the recorder, the result reader, exports) and ``analysis/``
+(closed forms and spectra used to check and read runs).
+
 The public API is small::
 
     import engine
@@ -21,10 +28,8 @@ the kernels, trimesh or scipy; ``engine.build`` and ``engine.run`` do.
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 
-from ._cache import ensure_fresh_cache
+from engine._cache import ensure_fresh_cache
 
 # Here, not in a kernel module: every ``engine.<module>`` import runs this file first, so the
 # stale-cache check always comes before numba loads any cached kernel.
@@ -32,13 +37,15 @@ ensure_fresh_cache()
 
 # public name -> the module that defines it
 _EXPORTS = {
-    "Scene": "spec", "SCHEMA_VERSION": "spec", "load_scene": "spec", "parse_scene": "spec",
-    "save_scene": "spec",
-    "build": "build", "System": "build",
-    "run": "run", "RunResult": "run", "Progress": "run", "energies": "observables",
-    "angular_momentum": "observables", "linear_momentum": "observables", "run_steps": "run",
-    "open_result": "results", "ResultFile": "results", "MemoryObserver": "observe",
-    "prescribe_motion": "motion", "estimate": "estimate", "Cost": "estimate",
+    "Scene": "model.spec", "SCHEMA_VERSION": "model.spec", "load_scene": "model.spec",
+    "parse_scene": "model.spec", "save_scene": "model.spec",
+    "build": "assembly.system", "System": "assembly.system",
+    "run": "stepping.loop", "RunResult": "stepping.loop", "Progress": "stepping.loop",
+    "run_steps": "stepping.loop", "energies": "stepping.observables",
+    "angular_momentum": "stepping.observables", "linear_momentum": "stepping.observables",
+    "open_result": "io.results", "ResultFile": "io.results",
+    "MemoryObserver": "stepping.observe", "prescribe_motion": "model.motion",
+    "estimate": "assembly.estimate", "Cost": "assembly.estimate",
     "BrushStudioError": "errors", "SceneError": "errors", "InstabilityError": "errors",
 }
 
@@ -67,20 +74,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Engine(types.ModuleType):
-    """The package's module type: ``engine.build`` and ``engine.run`` stay the functions.
-
-    Importing the submodule ``engine/build.py`` (or ``run.py``) binds it to the package under
-    the same name; an eager ``from .build import build`` used to rebind the function right
-    after, and this keeps it so when the submodule is first imported later."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if (isinstance(value, types.ModuleType) and _EXPORTS.get(name) == name
-                and value.__name__ == f"{__name__}.{name}"):
-            value = getattr(value, name)
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Engine

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .jsonable import jsonable
+from engine.jsonable import jsonable
 
 
 class BrushStudioError(Exception):

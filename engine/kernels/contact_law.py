@@ -19,7 +19,7 @@ NO_FRICTION = 0
 SLIP_EACH_STEP = 1   # Coulomb's cap is applied to the kept spring every step (the dynamics)
 SLIP_FROZEN = 2      # the kept spring is the uncapped trial since the last commit: the force
                      # applied is capped, the slip is committed only by a SLIP_EACH_STEP step
-                     # (quasi-static increments: engine.quasistatic)
+                     # (quasi-static increments: engine.stepping.quasistatic)
 
 
 def clipped_restitution(zeta: float) -> float:

@@ -1,5 +1,5 @@
 """Sampled pose controllers on free bodies (a chaser's thrusters and wheels), and constant
-external loads on free bodies. Spec: ``engine.spec.PoseController``; docs/mission.md.
+external loads on free bodies. Spec: ``engine.model.spec.PoseController``; docs/mission.md.
 
 Each controller samples its body's state when the step loop's time reaches its next sample
 time (every ``sample_interval``), computes a PID command on the position and attitude

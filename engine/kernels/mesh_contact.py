@@ -128,7 +128,7 @@ MESH_CONTACTS = 100
 
 def mesh_contact_stiffness(bodies, k: int) -> float:
     """The summed normal stiffness that mesh-mesh contacts can put on body k (N/m), for the
-    automatic timestep (``engine.timestep``): up to ``MESH_CONTACTS`` points of each pair
+    automatic timestep (``engine.assembly.timestep``): up to ``MESH_CONTACTS`` points of each pair
     touching at once, counted twice (two-sided rows: the partner is assumed no lighter), as
     for sphere contacts."""
     vs = bodies.point_start

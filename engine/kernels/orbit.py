@@ -254,7 +254,7 @@ def orbit_energy(system) -> float:
     n = float(system.mission.orbit[0])
     if n == 0.0:
         return 0.0
-    from ..layout import quat_to_matrix
+    from ..model.layout import quat_to_matrix
     nd, bd = system.nodes, system.bodies
     free = nd.inv_mass > 0
     B = bd.pos.shape[0]

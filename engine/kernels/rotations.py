@@ -1,5 +1,5 @@
 """Quaternion and small-vector kernels (numba, allocation-free, scalars in and out); their
-numpy versions for build time and the studio are in :mod:`engine.layout`.
+numpy versions for build time and the studio are in :mod:`engine.model.layout`.
 
 Quaternions are ``[w, x, y, z]`` and rotate local coordinates into world coordinates.
 """

@@ -140,7 +140,7 @@ def cmd_demo(args) -> int:
     except engine.SceneError as exc:  # a broken package, not a user error
         _print_scene_error(exc, "the embedded demo scene is invalid")
         return EXIT_FAILED
-    from engine.output_paths import OutputPathError, check_output_dir
+    from engine.io.output_paths import OutputPathError, check_output_dir
 
     try:  # a folder (created if missing, its parent must exist), never a file or a device
         check_output_dir(out, "-o/--output")

@@ -22,7 +22,7 @@ from studio.fmt import fmt_rate, fmt_seconds
 def _write_summary(path: Path, summary: dict, result_path) -> None:
     data = dict(summary)
     data["result"] = str(result_path) if result_path is not None else None
-    from engine.output_paths import refuse_special
+    from engine.io.output_paths import refuse_special
 
     refuse_special(path, "--summary")  # checked before the run; again right before writing
     path.write_text(json_text(data, indent=2) + "\n")
@@ -276,8 +276,8 @@ def output_problem(path: Path, what: str, parents: bool = False) -> Optional[str
     before a run starts, so that a bad ``-o`` or ``--summary`` does not cost a whole run.
     Only regular files are written (a device, a named pipe, a socket or a folder is refused
     without being opened); a missing folder is refused unless ``parents`` (``--parents``),
-    which creates it. See :mod:`engine.output_paths`."""
-    from engine.output_paths import output_file_problem
+    which creates it. See :mod:`engine.io.output_paths`."""
+    from engine.io.output_paths import output_file_problem
 
     import os
 

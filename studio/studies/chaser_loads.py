@@ -4,7 +4,7 @@ figures a chaser designer reads, each declared once here and used by the detumbl
 
 * the load on the carrier: the brushes mounted on it push it with ``-root_force`` (summed) and
   turn it with ``mount_torque`` (their roots' moment about its centre of mass, summed:
-  ``engine.observables.mount_torques``);
+  ``engine.stepping.observables.mount_torques``);
 * Delta-v of a load: integral of |F| / m over the frames (the trapezoid rule): the velocity
   change thrusters must supply to cancel it (for a push of fixed direction, also the velocity
   a free carrier picks up);

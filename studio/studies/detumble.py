@@ -49,9 +49,9 @@ DEG = math.pi / 180.0
 # ----------------------------------------------------------------------------- scenes
 def _target_extent(target: dict, axis: np.ndarray) -> float:
     """The target's largest extent from its centre of mass along ``axis`` (world), m."""
-    from engine.meshes import body_geometry
-    from engine.layout import quat_to_matrix
-    from engine.spec import Body
+    from engine.model.meshes import body_geometry
+    from engine.model.layout import quat_to_matrix
+    from engine.model.spec import Body
 
     body = Body.model_validate(target)
     geo = body_geometry(body)
@@ -125,7 +125,7 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         w_new = Rotation.from_rotvec(math.radians(tilt_deg) * e).apply(w_now) + tumble * wn * e
         target["angular_velocity"] = list(w_new / np.linalg.norm(w_new) * wn)
     # a longer bristle reaches farther along the approach axis by its projection on it
-    from engine.layout import quat_to_matrix
+    from engine.model.layout import quat_to_matrix
     along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
         @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
     cos_tilt = abs(float(along @ axis))

@@ -4,7 +4,7 @@ Every quantity comes from the recorded channels (docs/results.md) and the run's 
 
 * the target's angular velocity ``w`` (relative to the world frame: the Hill frame with an
   orbit) and its angular momentum ``L = R I_p R^T (w + Omega)`` (inertial, world components;
-  ``engine.results`` computes it), ``|w|(t)``;
+  ``engine.io.results`` computes it), ``|w|(t)``;
 * the time to detumble: the first frame from which ``|w|`` stays below ``threshold`` times its
   initial value to the end of the run (``None`` if it does not);
 * peak loads: on the target its recorded ``contact_force`` / ``contact_torque`` (about its

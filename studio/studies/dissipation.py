@@ -347,7 +347,7 @@ def write_outputs(fit: DissipationFit, out_dir: Path, source: str = "") -> dict[
     """Write fit.json, fit.csv, fit.h5 and fit.png into ``out_dir``; return the paths."""
     import h5py
 
-    from engine.output_paths import check_output_dir
+    from engine.io.output_paths import check_output_dir
 
     # a folder, never a file, a device or a named pipe (created if missing)
     out_dir = check_output_dir(out_dir, "output folder", parents=True)

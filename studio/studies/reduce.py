@@ -1,4 +1,4 @@
-"""``brush-studio study reduce``: fit the reduced brush law (engine.reduced_law) to short DEM
+"""``brush-studio study reduce``: fit the reduced brush law (engine.model.reduced_law) to short DEM
 runs of a brush design against a flat target surface, and validate it on held-out DEM runs
 (issue 25 items 1 and 3).
 
@@ -209,7 +209,7 @@ def replay_impact(law: dict, design: dict, scene: dict) -> dict:
     """The impact of ``scene`` replayed with the reduced law (module docstring)."""
     from scipy.integrate import solve_ivp
 
-    from engine.reduced_law import friction_coefficient, normal_force, torsion_radius
+    from engine.model.reduced_law import friction_coefficient, normal_force, torsion_radius
 
     par = law["parameters"]
     a, b = law["patch"]["size"]
@@ -320,7 +320,7 @@ def build_specs(options: "Options", design: dict):
 
 
 def fit_law(outcomes, design: dict) -> dict:
-    """The law dict (engine.reduced_law) fitted to the press and slide outcomes."""
+    """The law dict (engine.model.reduced_law) fitted to the press and slide outcomes."""
     from .reduce_fit import fit_normal, fit_tangent
 
     presses = [o.summary for o in outcomes if o.ok and o.params["kind"] == "press"]
@@ -334,7 +334,7 @@ def fit_law(outcomes, design: dict) -> dict:
     params = {k: normal[k]["value"] for k in ("k", "p", "c", "eta")}
     params.update({k: tangent[k]["value"] for k in ("mu", "q", "v_s")})
     return {"form": "F_n = k d^p (u(dd) + c dd); F_t = mu (F_n/1 N)^q tanh(v/v_s) F_n; "
-                    "M = mu_eff(F_n, w r_t) F_n r_t (engine.reduced_law)",
+                    "M = mu_eff(F_n, w r_t) F_n r_t (engine.model.reduced_law)",
             "parameters": params,
             "intervals": {k: v for k, v in {**normal, **tangent}.items()
                           if isinstance(v, dict)},
@@ -403,7 +403,7 @@ def add_parser(study_subparsers) -> None:
 
 
 def _run_study(options: Options, out: Path) -> int:
-    from engine.reduced_law import save_law
+    from engine.model.reduced_law import save_law
 
     from .run_files import write_json_atomic
     from .study_command import report_failures, run_study

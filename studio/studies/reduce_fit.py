@@ -1,4 +1,4 @@
-"""Least-squares fit of the reduced brush law (engine.reduced_law) to sampled contact data,
+"""Least-squares fit of the reduced brush law (engine.model.reduced_law) to sampled contact data,
 with 95 % confidence intervals from the Jacobian (``brush-studio study reduce``).
 
 ``fit_normal`` takes samples (interference d, rate dd, normal force F_n) from presses and
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, stats
 
-from engine.reduced_law import (NORMAL_PARAMS, TANGENT_PARAMS, friction_coefficient,
+from engine.model.reduced_law import (NORMAL_PARAMS, TANGENT_PARAMS, friction_coefficient,
                                 normal_force)
 
 

@@ -49,7 +49,7 @@ def write_json_atomic(path: Path, data: Any) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    from engine.output_paths import refuse_special
+    from engine.io.output_paths import refuse_special
 
     refuse_special(path)  # renamed onto: never a device, a named pipe or a folder
     refuse_special(tmp)   # opened: a named pipe would hang

@@ -100,7 +100,7 @@ def run_study(make_specs: Callable[[], Sequence[RunSpec]], out_dir: Path, args,
 
     if problem:
         raise StudyInputError(problem)
-    from engine.output_paths import OutputPathError, check_output_dir
+    from engine.io.output_paths import OutputPathError, check_output_dir
 
     try:  # a folder (created if missing, its parent must exist), never a file or a device
         check_output_dir(out_dir, "-o/--output")

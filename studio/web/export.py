@@ -1,5 +1,5 @@
 """Exports for other tools (issue 29, item 3): a run for ParaView and Python tools (the
-``.pvd`` + ``.vtu`` series of ``engine.vtk_export``), the designed brush as STL for CAD, and
+``.pvd`` + ``.vtu`` series of ``engine.io.vtk_export``), the designed brush as STL for CAD, and
 the plotted series as CSV.
 
     brush-studio export RESULT.h5 -o OUT_FOLDER [--every N] [--name NAME]
@@ -90,7 +90,7 @@ def _cmd_export(args) -> int:
         out.write_bytes(brush_stl(scene))
         print(f"wrote {out} (the designed brush, mm)")
         return EXIT_OK
-    from engine.vtk_export import export_vtk_series
+    from engine.io.vtk_export import export_vtk_series
 
     try:
         pvd = export_vtk_series(src, out, name=args.name, every=args.every)

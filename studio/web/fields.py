@@ -404,7 +404,7 @@ def _default_below(model, parts: list, tags: set) -> Any:
 def spec_default(field_: UiField) -> Any:
     """The value the engine uses for this field when a scene leaves it out (or does not list
     its contact pair), as JSON data; None where the scene model has no default. Read from
-    ``engine.Scene`` (engine/spec.py), the one place scene defaults are written."""
+    ``engine.Scene`` (engine/model/spec.py), the one place scene defaults are written."""
     import engine
 
     text = field_.path

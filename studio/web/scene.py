@@ -305,7 +305,7 @@ def add_body(scene: dict, kind: str = "box", size: float = 0.02) -> dict:
         br = new["brushes"][0]
         z = float(br.get("base", {}).get("position", [0, 0, 0])[2]) + br["bristle_length"]
     if new.get("bodies"):
-        from engine import layout
+        from engine.model import layout
 
         from studio.web.view import design_bodies
 

@@ -62,7 +62,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
         self.last_stream = 0.0
         self.last_cursor = 0.0
         self.n_segments_drawn = 0
-        self.overlaps: list = []    # initial overlaps of the design (engine.overlap)
+        self.overlaps: list = []    # initial overlaps of the design (engine.assembly.overlap)
         self._runs_md = ""
         self._last_poll = self._last_studies = 0.0
         self.view = uv.View(target)

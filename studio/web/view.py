@@ -20,7 +20,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from engine import layout
+from engine.model import layout
 from studio.plots.colors import colormap, colormap_css  # noqa: F401  (the view's colours)
 
 VIEW_SCALE = 1000.0  # view units (mm) per metre
@@ -51,8 +51,8 @@ def _pose(pose: Optional[dict]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _brush_field(brush: dict, name: str):
-    """A brush field of a scene dict, or the scene model's default (engine.spec.Brush)."""
-    from engine.spec import Brush
+    """A brush field of a scene dict, or the scene model's default (engine.model.spec.Brush)."""
+    from engine.model.spec import Brush
 
     value = brush.get(name)
     return Brush.model_fields[name].default if value is None else value
@@ -63,7 +63,7 @@ def _n_bristles(brush: dict) -> int:
 
 
 def design_layout(scene: dict, brush: dict) -> layout.BristleLayout:
-    """The rest layout (``engine.layout.brush_layout``, the one ``engine.build`` uses) of one
+    """The rest layout (``engine.model.layout.brush_layout``, the one ``engine.build`` uses) of one
     brush of a (validated) scene dict."""
     f = lambda name: _brush_field(brush, name)  # noqa: E731
     mount_position = mount_orientation = None
@@ -82,7 +82,7 @@ def design_layout(scene: dict, brush: dict) -> layout.BristleLayout:
 
 def design_bristles(scene: dict) -> Bristles:
     """The rest geometry of every brush of a (validated) scene dict, as docs/scene.md
-    describes it and ``engine.build`` places it (``engine.layout``)."""
+    describes it and ``engine.build`` places it (``engine.model.layout``)."""
     pos_all, rad_all, bonds_all = [], [], []
     n_node = 0
     n_bristles = 0
@@ -135,10 +135,11 @@ def unit_cylinder(sections: int = CYLINDER_SECTIONS) -> tuple[np.ndarray, np.nda
 
 def shape_mesh(shape: dict):
     """A body shape (scene dict, SI) as a trimesh in the shape's own frame: the mesh
-    ``engine.build`` makes of it (``engine.meshes.shape_mesh``)."""
+    ``engine.build`` makes of it (``engine.model.meshes.shape_mesh``)."""
     from pydantic import TypeAdapter
 
-    from engine import meshes, spec_bodies
+    from engine.model import meshes
+    from engine.model import spec_bodies
 
     return meshes.shape_mesh(TypeAdapter(spec_bodies.Shape).validate_python(shape))
 
@@ -271,10 +272,10 @@ MAX_OVERLAP_CHECK_SEGMENTS = 200_000  # above this the design is not checked liv
 
 def design_overlaps(scene: dict, bristles: Optional[Bristles] = None,
                     bodies: Optional[Sequence[BodyMesh]] = None) -> list:
-    """The initial overlaps of a design (``engine.overlap.find_overlaps`` on the rest
+    """The initial overlaps of a design (``engine.assembly.overlap.find_overlaps`` on the rest
     geometry the view draws): the same check ``engine.build`` makes, named the same way
     ("bristle 12" of brush 'brush', counted row by row within its brush)."""
-    from engine import overlap
+    from engine.assembly import overlap
 
     if n_design_segments(scene) > MAX_OVERLAP_CHECK_SEGMENTS:
         return []

@@ -3,7 +3,7 @@
 Nothing here uses the engine's model: every function is the textbook solution of a continuum
 problem (Euler-Bernoulli beam, inextensible elastica), evaluated with scipy, so that a test
 compares the engine with physics rather than with itself. The sections and the cantilever's
-bending frequencies come from :mod:`engine.beam_theory`, the one source the studies and
+bending frequencies come from :mod:`engine.analysis.beam_theory`, the one source the studies and
 benchmarks use too: pure ``math`` that imports nothing else of the engine (its roots are
 tested against brentq in ``test_beam_theory.py``). All quantities are SI.
 """
@@ -17,7 +17,7 @@ from scipy.integrate import quad, solve_bvp
 from scipy.optimize import brentq
 
 # sections and Euler-Bernoulli frequencies: the shared closed forms, re-exported
-from engine.beam_theory import (  # noqa: F401
+from engine.analysis.beam_theory import (  # noqa: F401
     cantilever_beta_l, cantilever_frequencies, circle_area, circle_second_moment)
 
 

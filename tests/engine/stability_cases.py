@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 
 # --------------------------------------------------------------------------- materials
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1100.0}  # seed 4.2

@@ -1,4 +1,4 @@
-"""engine.beam_theory: the clamped-free roots against the characteristic equation solved
+"""engine.analysis.beam_theory: the clamped-free roots against the characteristic equation solved
 independently (scipy's brentq on cos(b) cosh(b) + 1 with sign-change brackets), and the
 frequencies against the textbook numbers of the seed's steel rod."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from engine import beam_theory
+from engine.analysis import beam_theory
 
 
 def _brentq_roots(n_modes: int) -> list[float]:

@@ -13,8 +13,8 @@ import trimesh
 import engine
 from engine.kernels.body_contacts import BSLOT, deep_closest, nearest_triangle
 from engine.errors import InstabilityError
-from engine import spec_bodies
-from engine.meshes import shape_mesh
+from engine.model import spec_bodies
+from engine.model.meshes import shape_mesh
 from engine.state import LIMIT_SKIN
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -221,12 +221,12 @@ def test_nearest_triangle_and_inside_test_match_trimesh():
     trimesh's signed distance is positive, closest distance equal to trimesh's (1e-12 m: both
     exact). Catches a grid search that stops at a box holding no triangle's closest point, and
     a sign from the face normal alone near edges."""
-    from engine.meshes import triangle_grid
+    from engine.model.meshes import triangle_grid
     ico = trimesh.creation.icosphere(subdivisions=4, radius=0.012)
     v, t = np.ascontiguousarray(ico.vertices), np.ascontiguousarray(ico.faces, np.int64)
     origin, cell, dims, start, gtris = triangle_grid(v, t)
     assert dims.prod() > 1000
-    from engine.meshes import pseudo_normals
+    from engine.model.meshes import pseudo_normals
     tn = ico.face_normals.copy()
     pn = pseudo_normals(v, t)
     rng = np.random.default_rng(1)
@@ -258,7 +258,7 @@ def test_wedge_run_forces_equal_with_every_segment_listed():
         data["run"]["verlet_skin"] = skin
         system = engine.build(engine.parse_scene(data))
         engine.run(system, until=0.0085)
-        from engine.observables import root_reactions
+        from engine.stepping.observables import root_reactions
         return system, root_reactions(system)["brush"][0]
 
     tight, f_tight = run(None)
@@ -351,7 +351,7 @@ def test_edge_face_fade_and_its_gradient(tilt_deg):
     reflected the wrong way (the fade of a knife edge's or a flat edge's neighbour), a wrong
     sign or factor in dchi/dd1."""
     from engine.kernels.body_contacts import edge_face_fade
-    from engine.meshes import pseudo_normals
+    from engine.model.meshes import pseudo_normals
 
     half = math.radians(30.0)
     # apex edge A-B along x; faces F = (A, B, C) and G = (B, A, D) below it, 60 deg apart

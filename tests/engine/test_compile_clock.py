@@ -11,7 +11,7 @@ import pytest
 from numba import njit
 
 import engine
-from engine.compile_clock import CompileClock
+from engine.stepping.compile_clock import CompileClock
 
 
 def _fresh_pair():
@@ -68,7 +68,7 @@ def _stage_sum(summary):
 def test_a_slow_warm_up_is_compile_not_stages(tiny_scene, monkeypatch):
     """The step loop's warm-up call (zero steps) is where a cold cache compiles: a warm-up
     that takes 0.6 s must show as compile_s, and neither in the stages nor in the speed."""
-    run_module = importlib.import_module("engine.run")
+    run_module = importlib.import_module("engine.stepping.loop")
 
     real = run_module.advance
     delay = 0.6
@@ -92,7 +92,7 @@ def test_a_slow_warm_up_is_compile_not_stages(tiny_scene, monkeypatch):
 
 def test_a_compile_while_recording_is_not_recording_time(tiny_scene, monkeypatch):
     """A kernel first compiled by the recorder (a channel's helper) counts as compile."""
-    run_module = importlib.import_module("engine.run")
+    run_module = importlib.import_module("engine.stepping.loop")
 
     real = run_module.run_frame
     pending = [_fresh_pair()]

@@ -34,7 +34,7 @@ def _mesh_rotvec(system):
     from engine.kernels import control as C
     q = system.bodies.q[0]
     qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
-    from engine.layout import quat_mul as quat_mul_np
+    from engine.model.layout import quat_mul as quat_mul_np
     qm = quat_mul_np(q, qbm)
     if qm[0] < 0:
         qm = -qm
@@ -63,7 +63,7 @@ def test_pd_steady_state_error_is_disturbance_over_stiffness():
                        atol=1e-9)
     # the attitude law is kp * rotation vector, so the equilibrium is exact: rotvec = T_d/kp
     assert np.allclose(_mesh_rotvec(sys), t_d / kpa, rtol=0, atol=1e-8)
-    from engine.observables import controller_record
+    from engine.stepping.observables import controller_record
     rec = controller_record(sys, 0)
     # the applied force balances the disturbance (world = body axes at the target attitude
     # up to the small steady rotation, so compare the world impulse rate instead)
@@ -110,7 +110,7 @@ def test_saturation_is_per_body_axis():
     assert sys.bodies.pos[0, 0] == pytest.approx(0.5 * a * t * t, rel=3e-3)
     assert np.linalg.norm(sys.bodies.pos[0, 1:]) < 1e-9
     # Delta-v is the integral of |F| / m: 0.2 N / 2 kg for 10 s = 1 m/s
-    from engine.observables import controller_record
+    from engine.stepping.observables import controller_record
     assert controller_record(sys, 0)["delta_v"] == pytest.approx(a * t, rel=3e-3)
 
 
@@ -254,7 +254,7 @@ def test_contact_channels_hold_contact_alone_and_actuators_their_own():
     # in world axes: the command is in the mesh axes, q_mesh = q_body q_bm (the principal
     # frame is the engine's body frame)
     from engine.kernels import control as C
-    from engine.layout import quat_mul, quat_to_matrix
+    from engine.model.layout import quat_mul, quat_to_matrix
     qbm = system.mission.ctl_par[0, C.P_QBM:C.P_QBM + 4]
     rot = np.array([quat_to_matrix(quat_mul(qk, qbm)) for qk in q])
     world = np.einsum("fij,fj->fi", rot, applied)

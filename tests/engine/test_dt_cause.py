@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 import engine
-from engine.estimate import stability_bound
+from engine.assembly.estimate import stability_bound
 from studio import presets
 
 
@@ -42,7 +42,7 @@ def test_an_unstable_user_dt_is_named_as_the_cause():
 
 def test_a_stable_dt_keeps_the_specific_advice():
     """With no dt given there is no dt to blame: the advice is the failure's own."""
-    from engine.diagnosis import dt_cause
+    from engine.stepping.diagnosis import dt_cause
 
     system = engine.build(_scene())
     assert dt_cause(system) is None

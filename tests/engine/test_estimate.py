@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.estimate import estimate
+from engine.assembly.estimate import estimate
 
 PRESETS = sorted(glob.glob(str(Path(__file__).resolve().parents[2] / "static_presets" /
                                 "*.json")))
@@ -37,9 +37,9 @@ def test_one_element_for_the_build_and_the_estimate():
     # build's bristles) and masses that lose part of the bristle
     import math
 
-    import engine.build_bristles as build_bristles
-    import engine.estimate as estimate_module
-    from engine.element import frustum_bond_stiffness, node_masses
+    import engine.assembly.bristles as build_bristles
+    import engine.assembly.estimate as estimate_module
+    from engine.assembly.element import frustum_bond_stiffness, node_masses
 
     assert build_bristles.frustum_bond_stiffness is frustum_bond_stiffness
     assert build_bristles.node_masses is node_masses

@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import engine
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 
 AL = {"youngs_modulus": 70e9, "density": 2700.0}
 MASS = 2.0

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 
 AL = {"youngs_modulus": 70e9, "density": 2700.0}
 INERTIA = (2.0, 5.0, 6.0)   # kg m^2, principal (x, y, z): three different moments

@@ -16,11 +16,11 @@ ENGINE = Path(engine.__file__).parent
 
 def _copy_sources(dest: Path) -> Path:
     root = dest / "engine"
-    (root / "kernels").mkdir(parents=True)
-    for path in ENGINE.glob("*.py"):
-        shutil.copy(path, root / path.name)
-    for path in (ENGINE / "kernels").glob("*.py"):
-        shutil.copy(path, root / "kernels" / path.name)
+    for path in ENGINE.rglob("*.py"):
+        if "__pycache__" in path.parts:
+            continue
+        (root / path.relative_to(ENGINE)).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, root / path.relative_to(ENGINE))
     return root
 
 
@@ -50,7 +50,7 @@ def test_an_edit_of_the_state_bundles_drops_the_cache_and_a_spec_edit_keeps_it(t
     ensure_fresh_cache(root)
     cached = _plant_cached_kernel(root)
 
-    spec = root / "spec.py"
+    spec = root / "model" / "spec.py"
     spec.write_text(spec.read_text() + "\n# an edit\n")
     ensure_fresh_cache(root)
     assert cached.exists(), "the spec holds no compiled code: its edit must keep the cache"

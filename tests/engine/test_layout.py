@@ -1,4 +1,4 @@
-"""engine.layout's stacked helpers equal, bit for bit, the one-row numpy calls they replace
+"""engine.model.layout's stacked helpers equal, bit for bit, the one-row numpy calls they replace
 in build (``R @ v``, ``np.dot``, ``quat_from_two_vectors``, the numba ``qmul``): built node
 positions and orientations must not change when the layout is computed for all bristles at
 once. A helper that summed in another order (``einsum``, ``V @ R.T``) differs in the last bit
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine import layout
+from engine.model import layout
 
 
 def _rows(n=2000, seed=0):

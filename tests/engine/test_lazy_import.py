@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.kernels.stepper", "engine.build")
+HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.kernels.stepper", "engine.assembly.system")
 
 _CODE = """
 import json, sys
@@ -35,8 +35,8 @@ def test_public_names_resolve_to_the_functions(tiny_scene):
 
     for name in engine.__all__:
         assert getattr(engine, name) is not None
-    import engine.build  # noqa: F401  (binds the submodule to the package, as imports do)
-    import engine.run  # noqa: F401
+    import engine.assembly.system  # noqa: F401  (binds the submodule to the package, as imports do)
+    import engine.stepping.loop  # noqa: F401
 
     # the names stay the functions, not the modules of the same name
     assert callable(engine.build) and callable(engine.run)
@@ -55,11 +55,11 @@ print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))
 
 
 def test_design_view_imports_no_kernels():
-    # the studio draws a design with engine.layout and engine.meshes (numpy, trimesh): a
+    # the studio draws a design with engine.model.layout and engine.model.meshes (numpy, trimesh): a
     # kernel module imported on the way (say engine.kernels.rotations for a quaternion) would
     # make the first design view wait for numba
     scene = ROOT / "static_presets" / "gripper.json"
     p = subprocess.run([sys.executable, "-c", _DESIGN_CODE, str(scene), "numba",
-                        "engine.kernels.stepper", "engine.build", "engine.kernels.rotations"],
+                        "engine.kernels.stepper", "engine.assembly.system", "engine.kernels.rotations"],
                        cwd=ROOT, capture_output=True, text=True, check=True)
     assert json.loads(p.stdout) == []

@@ -11,13 +11,13 @@ from pathlib import Path
 import pytest
 
 import engine
-from engine.meshes import load_mesh_file
+from engine.model.meshes import load_mesh_file
 
 PACKAGE = Path(engine.__file__).parent
 
 
 def _cache_dir(env: dict) -> Path:
-    out = subprocess.run([sys.executable, "-c", "import engine.meshes as m; print(m._CACHE_DIR)"],
+    out = subprocess.run([sys.executable, "-c", "import engine.model.meshes as m; print(m._CACHE_DIR)"],
                          env={**os.environ, **env}, capture_output=True, text=True, check=True)
     return Path(out.stdout.strip())
 

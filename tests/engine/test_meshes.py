@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from engine import meshes
+from engine.model import meshes
 from engine.errors import SceneError
-from engine.meshes import body_geometry, load_mesh_file, shape_mesh, triangle_grid
-from engine.spec_bodies import (BoxShape, Body, CylinderShape, MassProperties, MeshFileShape,
+from engine.model.meshes import body_geometry, load_mesh_file, shape_mesh, triangle_grid
+from engine.model.spec_bodies import (BoxShape, Body, CylinderShape, MassProperties, MeshFileShape,
                                 SphereShape, WedgeShape)
 
 RHO = 1250.0

@@ -1,5 +1,5 @@
 """A brush mounted on a moving or spinning body starts with the body's rigid motion
-(engine.build_bristles.start_with_mounts): no jerk in the first steps, so the root force of
+(engine.assembly.bristles.start_with_mounts): no jerk in the first steps, so the root force of
 a brush carried through free space without contact is its own inertial load."""
 import json
 import math

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 
 from analytic import clohessy_wiltshire  # tests/engine is on sys.path
 

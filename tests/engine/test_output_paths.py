@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from engine.output_paths import (OutputPathError, check_output_dir, check_output_file,
+from engine.io.output_paths import (OutputPathError, check_output_dir, check_output_file,
                                  output_dir_problem, output_file_problem)
-from engine.recorder import Recorder
+from engine.io.recorder import Recorder
 
 SCENE = '{"name": "t"}'
 CHANNELS = {"time": ((), "f8")}

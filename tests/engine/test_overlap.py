@@ -1,4 +1,4 @@
-"""Initial overlap (engine/overlap.py): the geometry against closed forms, and build's
+"""Initial overlap (engine/assembly/overlap.py): the geometry against closed forms, and build's
 warning for a body that starts inside the brush (issue 14, defect 1)."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from engine import overlap
+from engine.assembly import overlap
 
 
 def _box(lo, hi):

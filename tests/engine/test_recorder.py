@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from engine.errors import BrushStudioError, InstabilityError, RunCancelled
-from engine.recorder import FORMAT_VERSION, Recorder
-from engine.results import open_result
+from engine.io.recorder import FORMAT_VERSION, Recorder
+from engine.io.results import open_result
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -302,7 +302,7 @@ def test_series_never_returns_uncommitted_rows(tmp_path):
 
 READER = """
     import json, sys
-    from engine.results import open_result
+    from engine.io.results import open_result
     with open_result(sys.argv[1]) as r:
         print(json.dumps({"n": r.n_frames, "status": r.status, "interrupted": r.interrupted,
                           "time": r.time.tolist(),
@@ -327,7 +327,7 @@ def test_read_while_writer_is_open_from_another_process(tmp_path):
 WRITER = """
     import sys, time
     sys.path.insert(0, sys.argv[2])
-    from engine.recorder import Recorder
+    from engine.io.recorder import Recorder
     from tests.engine.test_recorder import new_recorder, frame_values
     rec = new_recorder(sys.argv[1], flush_every=3)
     i = 0
@@ -388,7 +388,7 @@ def test_writer_killed_while_creating_the_file_leaves_the_old_file_intact(tmp_pa
         rec.append(frame_values(0))
     code = """
         import os, signal, sys
-        import engine.recorder as recorder
+        import engine.io.recorder as recorder
         from tests.engine.test_recorder import new_recorder
         recorder.os.replace = lambda *a: os.kill(os.getpid(), signal.SIGKILL)
         new_recorder(sys.argv[1])

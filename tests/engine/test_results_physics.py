@@ -19,7 +19,7 @@ import pytest
 
 import engine
 from engine.errors import BrushStudioError
-from engine.results import MissingChannelError
+from engine.io.results import MissingChannelError
 
 PRESET = Path(__file__).resolve().parents[2] / "static_presets" / "momentum_two_brushes.json"
 ABOUT = (0.01, -0.02, 0.03)   # not the origin: the orbital term r x p must use the point

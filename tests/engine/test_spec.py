@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from engine.errors import SceneError
-from engine.spec import load_scene, parse_scene, save_scene
+from engine.model.spec import load_scene, parse_scene, save_scene
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene.md"
 

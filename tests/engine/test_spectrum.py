@@ -1,4 +1,4 @@
-"""engine.spectrum, the one spectral-peak estimator, on closed forms: sums of sinusoids of
+"""engine.analysis.spectrum, the one spectral-peak estimator, on closed forms: sums of sinusoids of
 known frequencies and amplitudes."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from engine import spectrum
+from engine.analysis import spectrum
 
 
 def _tones(t: np.ndarray, tones, rng) -> np.ndarray:

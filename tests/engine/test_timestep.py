@@ -1,5 +1,5 @@
 """The automatic timestep counts only the contacts a node can actually have
-(engine/timestep.py and the reach analysis of engine/build_contacts.py)."""
+(engine/assembly/timestep.py and the reach analysis of engine/assembly/contacts.py)."""
 from __future__ import annotations
 
 import copy
@@ -94,7 +94,7 @@ def test_a_body_in_reach_adds_its_contact_term():
 def _forces(system, x, q):
     """Force and torque on every node at positions ``x`` and orientations ``q`` (nodes at
     rest), through the step loop itself: one step of a negligible dt."""
-    from engine.run import _advance
+    from engine.stepping.loop import _advance
 
     nd = system.nodes
     nd.x[:] = x
@@ -166,7 +166,7 @@ def test_partner_counts_agree_on_every_path(monkeypatch, levels, cap):
     the nearest roots per tip reach; chunks of listed pairs when every tip has its own
     reach, ``levels = 0``): each must give the count of a plain double loop over roots and
     nodes, capped at ``cap`` (uncapped with 10,000)."""
-    build_mod = importlib.import_module("engine.build_contacts")
+    build_mod = importlib.import_module("engine.assembly.contacts")
 
     rng = np.random.default_rng(3)
     n_roots, n_nodes = 300, 1200

@@ -29,7 +29,7 @@ import pytest
 from scipy.integrate import quad
 
 import engine
-from engine.spectrum import peak_frequencies
+from engine.analysis.spectrum import peak_frequencies
 
 import analytic  # tests/engine is on sys.path (pytest's rootdir-relative import of this file)
 

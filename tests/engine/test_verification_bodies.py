@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 
 STEEL = {"youngs_modulus": 200e9, "poisson_ratio": 0.3, "density": 7800.0}
 FIGURES: dict[str, float] = {}  # measured values, printed by benchmarks/verification_figures.py

@@ -7,7 +7,7 @@ The silicone bristle (33 mm, 1.0 -> 0.5 mm, 9 nodes) stands along +z, clamped at
 A PLA box's face, its outward normal n at 45 degrees to -z, starts just touching the tip
 sphere and is moved down in 0.5 mm increments to 8 mm (tip slope 25 degrees, below the
 45 degrees at which the last segment would lie on the face), then back to 0.5 mm. Each
-increment is settled with the engine's quasi-static method (``engine.quasistatic``: frozen
+increment is settled with the engine's quasi-static method (``engine.stepping.quasistatic``: frozen
 slip within an increment, strong local damping, equalised inertia), so the states compared
 are equilibria. The tip slides outwards along the face while the plane is pressed in and back
 while it is withdrawn, so friction reverses and the force on the plane is larger on the way
@@ -28,9 +28,9 @@ import pytest
 from scipy.integrate import quad
 
 import engine
-from engine.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
+from engine.stepping.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
                                 lowest_bristle_period, settle)
-from engine.run import run_steps
+from engine.stepping.loop import run_steps
 
 import analytic  # tests/engine is on sys.path
 import elastica_contact

@@ -41,7 +41,7 @@ def test_exported_series_opens_in_vtk_and_meshio_with_the_recorded_positions(tin
     import vtk
     from vtk.util.numpy_support import vtk_to_numpy
 
-    from engine.vtk_export import export_vtk_series
+    from engine.io.vtk_export import export_vtk_series
 
     pvd = export_vtk_series(tiny_result, tmp_path / "out")
     assert pvd.name == "tiny run.pvd"
@@ -85,7 +85,7 @@ def test_every_nth_frame_and_the_zip(tiny_result, tmp_path):
     import io
     import zipfile
 
-    from engine.vtk_export import export_vtk_series, export_vtk_zip
+    from engine.io.vtk_export import export_vtk_series, export_vtk_zip
 
     pvd = export_vtk_series(tiny_result, tmp_path / "out", name="run", every=2)
     files = [d.get("file") for d in ET.parse(pvd).getroot().iter("DataSet")]

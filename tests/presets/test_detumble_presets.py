@@ -34,7 +34,7 @@ def test_preset_has_the_detumble_layout_and_describes_itself(name):
     # the spin is about the target's major principal axis (stated: a stable spin)
     k = system.body_names.index("target")
     Ip = system.bodies.Ip[k]
-    from engine.layout import quat_to_matrix
+    from engine.model.layout import quat_to_matrix
     R = quat_to_matrix(system.bodies.q[k])
     major = R[:, int(np.argmax(Ip))]
     w = np.asarray(target.angular_velocity)

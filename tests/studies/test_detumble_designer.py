@@ -71,13 +71,13 @@ def test_per_axis_thrust_needs_sqrt2_more_for_a_diagonal_push():
 
 def test_mount_torque_is_the_roots_moment_about_the_chasers_centre_of_mass():
     # random forces and torques on the root nodes of the detumble brush: the recorded moment
-    # about the chaser's centre of mass (engine.observables.mount_torques, via the root
+    # about the chaser's centre of mass (engine.stepping.observables.mount_torques, via the root
     # reactions about the brush base) against the step loop's own transfer of the roots'
     # loads onto the body (roots_to_bodies, about the body's centre). A moment left about the
     # base (the old peak_chaser_torque) misses the 0.5 m lever x force term.
     import engine
     from engine.kernels.stepper import roots_to_bodies
-    from engine.observables import mount_torques
+    from engine.stepping.observables import mount_torques
     from studio import presets
 
     sys = engine.build(presets.load_preset_or_file("detumble_upper_stage"))

@@ -3,7 +3,7 @@ law from synthetic data within its confidence intervals (issue 25)."""
 import numpy as np
 import pytest
 
-from engine.reduced_law import friction_coefficient, normal_force
+from engine.model.reduced_law import friction_coefficient, normal_force
 from studio.studies.reduce_fit import fit_normal, fit_tangent
 
 TRUE_N = {"k": 4.0e4, "p": 1.4, "c": 2.0, "eta": 0.7}

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from engine.reduced_law import PARAMS, load_law, torsion_radius
+from engine.model.reduced_law import PARAMS, load_law, torsion_radius
 from studio.cli.main import main
 
 

@@ -7,7 +7,7 @@ Each method stops a hold within the study's equilibrium tolerance ``max(threshol
 rel_threshold |F|)`` of an equilibrium, so two records of the same equilibrium may differ by
 twice that, plus the reference's rate error.
 
-Bug this catches: without the frozen slip (``engine.quasistatic.freeze_slip``) the fast
+Bug this catches: without the frozen slip (``engine.stepping.quasistatic.freeze_slip``) the fast
 quasi-static moves lose friction (27 % low at 10 mm with a_m = 4); a hold that stops before
 equilibrium (a wrong out-of-balance sum, a kinetic criterion in the wrong units) shows as a
 force off by more than the tolerance.

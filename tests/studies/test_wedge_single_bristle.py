@@ -54,7 +54,7 @@ def single_bristle_scene(*, apex_y=None) -> dict:
 def face_gap(d: dict) -> tuple[float, float]:
     """(wedge travel at which the -y face's plane first touches the straight bristle's tip
     sphere, the face normal's angle against -z). The wedge's apex edge is its shape frame's
-    x axis (engine.meshes), each face at half the wedge angle from the vertical."""
+    x axis (engine.model.meshes), each face at half the wedge angle from the vertical."""
     br, wedge = d["brushes"][0], d["bodies"][0]
     half = 0.5 * wedge["shape"]["angle"]
     _, ay, az = wedge["pose"]["position"]

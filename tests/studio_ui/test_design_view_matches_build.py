@@ -23,7 +23,7 @@ from studio.web import view as uv
 
 PRESETS = Path(__file__).resolve().parents[2] / "static_presets"
 
-# both sides come from engine.layout, so they agree to rounding; any of the bugs above moves
+# both sides come from engine.model.layout, so they agree to rounding; any of the bugs above moves
 # a node by at least a tip perturbation (here >= 1e-6 m) or a pitch (1e-3 m)
 TOL = 1e-12  # m
 

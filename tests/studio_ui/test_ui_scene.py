@@ -178,7 +178,7 @@ def test_a_value_left_out_shows_what_the_engine_uses(motion):
     # the defaults shown for optional values come from the scene model (studio/web/fields.py
     # reads engine.Scene); the reference is independent of that reading: the engine's own
     # validation fills the scene in. A default restated in the studio and changed in
-    # engine/spec.py since (or read from the wrong union member) shows a different value
+    # engine/model/spec.py since (or read from the wrong union member) shows a different value
     sparse = {
         "name": "sparse", "run": {"duration": 0.1, "record_interval": 0.01},
         "materials": {"silicone": {"youngs_modulus": 2.7e6, "density": 1700.0},

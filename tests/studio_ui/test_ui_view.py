@@ -8,7 +8,7 @@ import socket
 import numpy as np
 import pytest
 
-from engine.layout import quat_to_matrix
+from engine.model.layout import quat_to_matrix
 from studio.web import view as uv
 
 

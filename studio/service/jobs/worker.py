@@ -99,8 +99,8 @@ def _worker_main(conn, cancel_seq, threads: int, parent_pid: int) -> None:
 
     # the kernel modules, numba and trimesh: once per worker (``import engine`` alone is
     # light and would leave them to the first job)
-    import engine.build  # noqa: F401
-    import engine.run  # noqa: F401
+    import engine.assembly.system  # noqa: F401
+    import engine.stepping.loop  # noqa: F401
 
     conn.send(("ready", os.getpid(), int(numba.config.NUMBA_NUM_THREADS)))
     while True:
@@ -321,7 +321,7 @@ def finalize_killed_result(path: Path, status: str, message: str) -> bool:
     import h5py
 
     from engine.jsonable import json_text
-    from engine.recorder import _text
+    from engine.io.recorder import _text
 
     path = Path(path)
     if not path.is_file():

@@ -143,7 +143,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
              responses={200: {"content": {"application/zip": {
                  "schema": {"type": "string", "format": "binary"}}},
                  "description": "NAME-ID/NAME-ID.pvd and one .vtu per exported frame "
-                                "(engine/vtk_export.py)"},
+                                "(engine/io/vtk_export.py)"},
                  **error_responses(404, 409)})
     def get_export(job_id: str,
                    every: int = Query(1, ge=1, le=1_000_000,
@@ -155,7 +155,7 @@ def runs_router(jobs: JobManager, guarded: list, *, allow_files: bool = False):
         path = jobs.result_path(job_id)
         if not path.is_file():
             raise HTTPException(404, f"run {job_id} ({info.status}) has no result file")
-        from engine.vtk_export import export_vtk_zip
+        from engine.io.vtk_export import export_vtk_zip
 
         safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in info.name)[:80]
         stem = f"{safe or 'run'}-{job_id}"

@@ -23,7 +23,7 @@ def write_outputs(table: ConvergenceTable, out_dir, scene_json: str = "") -> Non
     convergence.png into ``out_dir``; each written to a temporary name and renamed."""
     import h5py
 
-    from engine.output_paths import check_output_dir
+    from engine.io.output_paths import check_output_dir
 
     # a folder, never a file, a device or a named pipe (created if missing)
     out_dir = check_output_dir(out_dir, "output folder", parents=True)

@@ -9,8 +9,8 @@ from typing import Optional
 
 import numpy as np
 
-from engine.layout import quat_to_matrix
-from engine.spectrum import peak_frequencies, uniform_part
+from engine.model.layout import quat_to_matrix
+from engine.analysis.spectrum import peak_frequencies, uniform_part
 
 CSV_COLUMNS = ("level", "n_nodes", "dt", "quantity", "error", "wall_s")
 TOLERANCES = (0.01, 0.05)
@@ -153,7 +153,7 @@ def _transverse(tip: np.ndarray, root0: np.ndarray) -> np.ndarray:
 
 def spectral_peaks(time: np.ndarray, signal: np.ndarray, n_peaks: int) -> np.ndarray:
     """Frequencies (Hz, ascending) of the ``n_peaks`` largest spectral peaks of a uniformly
-    sampled signal, by the shared estimator :func:`engine.spectrum.peak_frequencies`
+    sampled signal, by the shared estimator :func:`engine.analysis.spectrum.peak_frequencies`
     (Blackman-Harris PSD, side lobes refused, parabolic refinement); ConvergenceError when
     the record is too short, not sampled uniformly, or has fewer peaks."""
     time = np.asarray(time, float)

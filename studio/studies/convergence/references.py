@@ -8,8 +8,8 @@ from typing import Optional
 
 import numpy as np
 
-from engine.beam_theory import circle_second_moment, rod_frequency
-from engine.layout import quat_to_matrix
+from engine.analysis.beam_theory import circle_second_moment, rod_frequency
+from engine.model.layout import quat_to_matrix
 
 from .quantities import Quantity
 

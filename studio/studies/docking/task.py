@@ -24,7 +24,7 @@ def hull_gap(face_x: float, chaser_pos, chaser_q, target_pos, target_q, vertices
     """Per frame, the distance from the chaser's docking face (its body-frame plane
     x = ``face_x``) to the target's nearest vertex, along the face's normal: negative once a
     vertex is behind the face (the hulls meet)."""
-    from engine.layout import quat_to_matrix
+    from engine.model.layout import quat_to_matrix
 
     Rc = quat_to_matrix(chaser_q)                       # (F, 3, 3)
     Rt = quat_to_matrix(target_q)

@@ -200,7 +200,7 @@ def run_metrics(scene, h5_path: Path, params: dict) -> dict:
     scenario, return its metrics (JSON-able; ``sim_cpu_s``: CPU of build + run, the rest of
     the task is analysis)."""
     import engine
-    from engine.observables import bending_moments  # noqa: F401 (the recorded channel)
+    from engine.stepping.observables import bending_moments  # noqa: F401 (the recorded channel)
 
     from .. import api
 

@@ -13,7 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from engine.jsonable import jsonable
-from engine.spectrum import power_spectrum
+from engine.analysis.spectrum import power_spectrum
 from studio.studies.rod.runs import CASE_TITLES, CASES, tip_positions
 
 

@@ -35,8 +35,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from engine.beam_theory import rod_frequency
-from engine.spectrum import (  # noqa: F401  (part of this study's API)
+from engine.analysis.beam_theory import rod_frequency
+from engine.analysis.spectrum import (  # noqa: F401  (part of this study's API)
     match_modes, power_spectrum, spectral_peaks, uniform_part)
 
 from studio.studies import api
@@ -67,14 +67,14 @@ def cantilever_frequencies(length: float = ROD_LENGTH, radius: float = ROD_RADIU
                            youngs_modulus: float = STEEL["youngs_modulus"],
                            density: float = STEEL["density"], n_modes: int = 3) -> list[float]:
     """Euler-Bernoulli bending frequencies (Hz) of a uniform clamped-free rod:
-    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`engine.beam_theory`)."""
+    ``(beta_n L)^2 / (2 pi) sqrt(E I / (rho A L^4))`` (:mod:`engine.analysis.beam_theory`)."""
     return [rod_frequency(n, length, youngs_modulus, radius, density)
             for n in range(1, n_modes + 1)]
 
 
 # ----------------------------------------------------------------------------- spectra
 # power_spectrum (Blackman-Harris PSD), spectral_peaks, match_modes and uniform_part are the
-# shared estimator of engine.spectrum, imported above
+# shared estimator of engine.analysis.spectrum, imported above
 
 
 def drive_response(time: np.ndarray, signal: np.ndarray, frequency: float, start: float

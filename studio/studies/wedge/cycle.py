@@ -216,13 +216,13 @@ def _quasi_static_steps(system, p: dict, brush: str, body: str, direction, serie
     """``advance(duration)`` and ``hold(stage, zero)`` of the quasi-static method: the live
     state is read every ``check`` steps (about 1/``qs_checks_per_period`` of the slowest
     bristle's period) for the series, and a hold ends when the out-of-balance force and the
-    kinetic energy are below the tolerance (:func:`engine.quasistatic.settle`)."""
+    kinetic energy are below the tolerance (:func:`engine.stepping.quasistatic.settle`)."""
     import numpy as np
 
-    from engine.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
+    from engine.stepping.quasistatic import (commit_slip, freeze_slip, kinetic_tolerance_for,
                                     lowest_bristle_period, settle)
-    from engine.observables import root_reactions
-    from engine.run import run_steps
+    from engine.stepping.observables import root_reactions
+    from engine.stepping.loop import run_steps
 
     dt = system.dt
     freeze_slip(system)

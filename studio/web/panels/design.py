@@ -10,7 +10,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from engine import layout
+from engine.model import layout
 
 from studio.web import brushes as ub
 from studio.web import guides as ug
@@ -331,7 +331,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
 
     def redraw_design(self) -> None:
         """Draw the design: bristles at rest, bodies at their pose, the gizmo on the
-        selected body; check it for initial overlap (``engine.overlap``, the check
+        selected body; check it for initial overlap (``engine.assembly.overlap``, the check
         ``engine.build`` makes) and mark what overlaps in red, with the message under the
         Body folder."""
         with self.lock:

@@ -352,7 +352,7 @@ class ResultsPanel:
             status = gui.add_markdown("")
 
             def _vtk(_e) -> None:
-                from engine.vtk_export import export_vtk_zip
+                from engine.io.vtk_export import export_vtk_zip
 
                 status.content = "writing the series…"
                 try:

@@ -13,12 +13,12 @@ from typing import Optional, Union
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
-from .kernels.bodies import KINEMATIC, kinematic_state
-from .build import System
-from .build_bodies import kinematic_segments
-from .errors import SceneError
-from .spec import _problems_from
-from .spec_bodies import Profile
+from engine.kernels.bodies import KINEMATIC, kinematic_state
+from engine.assembly.system import System
+from engine.assembly.bodies import kinematic_segments
+from engine.errors import SceneError
+from engine.model.spec import _problems_from
+from engine.model.spec_bodies import Profile
 
 _PROFILE = TypeAdapter(Profile)
 

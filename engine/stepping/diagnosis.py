@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Optional
 
-from .build import System
-from .errors import InstabilityError
-from .state import (FAIL_BODY_SPEED, FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
+from engine.assembly.system import System
+from engine.errors import InstabilityError
+from engine.state import (FAIL_BODY_SPEED, FAIL_NODE_SPEED, FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE,
                     FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY, FAIL_OVERLAP_BODYBODY, LIMIT_OVERLAP)
 
 

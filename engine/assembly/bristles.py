@@ -1,9 +1,9 @@
 """Build, bristles: the ``Nodes``, ``Bonds`` and ``Roots`` bundles (engine.state) of every
 brush, brush after brush and bristle after bristle, row by row.
 
-The rest geometry is :mod:`engine.layout`'s (the studio draws the same); here it gets its
+The rest geometry is :mod:`engine.model.layout`'s (the studio draws the same); here it gets its
 physics: node masses and twist inertias of the frustum segments and the exact frustum bond
-stiffnesses (:mod:`engine.element`, which the estimate uses too) and their damping, and the roots clamped in the
+stiffnesses (:mod:`engine.assembly.element`, which the estimate uses too) and their damping, and the roots clamped in the
 world or to the body the brush is mounted on.
 """
 from __future__ import annotations
@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .element import frustum_bond_stiffness, node_masses
-from .layout import BristleLayout, brush_layout, quat_conj, quat_mul, quat_to_matrix, rotate_rows
-from .spec import Scene
-from .state import Bodies, Bonds, Nodes, Roots
+from engine.assembly.element import frustum_bond_stiffness, node_masses
+from engine.model.layout import BristleLayout, brush_layout, quat_conj, quat_mul, quat_to_matrix, rotate_rows
+from engine.model.spec import Scene
+from engine.state import Bodies, Bonds, Nodes, Roots
 
 
 @dataclass
@@ -48,7 +48,7 @@ class BristlePart:
 
 
 def brush_layout_of(scene: Scene, brush) -> BristleLayout:
-    """The rest layout (``engine.layout``) of one of the scene's brushes, in world
+    """The rest layout (``engine.model.layout``) of one of the scene's brushes, in world
     coordinates: the base pose is relative to the mount body's pose when it has one."""
     mount_pose = (None, None)
     if brush.mount is not None:
@@ -218,7 +218,7 @@ def _start_velocity(bodies: Bodies, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Body k's velocity and angular velocity as the run starts: a kinematic body whose
     first profile segment starts at t = 0 moves off with that segment's initial velocity
     (``kinematic_state`` reports it at rest at the very instant t = 0)."""
-    from .kernels.bodies import KINEMATIC
+    from engine.kernels.bodies import KINEMATIC
     if bodies.motion[k] == KINEMATIC:
         c = int(bodies.seg_start[k])
         if bodies.t0[c] <= 0.0 < bodies.t1[c]:

@@ -21,9 +21,9 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .errors import BrushStudioError
-from .layout import quat_to_matrix
-from .recorder import FORMAT, FORMAT_VERSION
+from engine.errors import BrushStudioError
+from engine.model.layout import quat_to_matrix
+from engine.io.recorder import FORMAT, FORMAT_VERSION
 
 ENERGY_KEYS = ("kinetic", "bond", "contact", "gravity", "dissipated", "external_work", "total")
 
@@ -186,9 +186,9 @@ class ResultFile:
 
     @property
     def scene(self):
-        """The run's scene (engine.spec.Scene), parsed on first use."""
+        """The run's scene (engine.model.spec.Scene), parsed on first use."""
         if self._scene is None:
-            from .spec import parse_scene
+            from engine.model.spec import parse_scene
             self._scene = parse_scene(self.scene_json)
         return self._scene
 
@@ -453,7 +453,7 @@ class ResultFile:
         orbit = self.scene.environment.orbit
         if orbit is None or orbit.n == 0.0:
             return 0.0
-        from .kernels.orbit import orbit_energy_terms
+        from engine.kernels.orbit import orbit_energy_terms
         if nodes is not None:
             node_mass, node_x = nodes["mass"], nodes["position"]
         else:

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .build import System
-from .observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, actuator_wrench,
+from engine.assembly.system import System
+from engine.stepping.observables import (CONTROLLER_CHANNELS, RELEASE_CHANNELS, actuator_wrench,
                           bending_moments, controller_record, energies, mount_torques,
                           root_reactions)
-from .recorder import state_channels, state_frame
-from .state import ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY
+from engine.io.recorder import state_channels, state_frame
+from engine.state import ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY
 
 def run_channels(system: System) -> tuple[dict, dict]:
     """The recorded channels ``{name: (per-frame shape, dtype)}`` and the static datasets

@@ -26,7 +26,7 @@ from typing import Optional, Union
 
 import numpy as np
 
-from .errors import BrushStudioError
+from engine.errors import BrushStudioError
 
 
 def _body_meshes(res) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -46,7 +46,7 @@ def _body_meshes(res) -> list[tuple[str, np.ndarray, np.ndarray]]:
 def frame_mesh(res, i: int, bodies=None) -> tuple[np.ndarray, list, dict, dict]:
     """(points, cell blocks [(type, connectivity)], point data, cell data) of frame ``i`` of
     an open result, in the layout described in the module's docstring."""
-    from .layout import quat_to_matrix
+    from engine.model.layout import quat_to_matrix
 
     bodies = _body_meshes(res) if bodies is None else bodies
     channels = set(res.channels())
@@ -93,7 +93,7 @@ def export_vtk_series(result_path: Union[str, Path], out_dir: Union[str, Path],
     ``.pvd``'s path."""
     import meshio
 
-    from .results import open_result
+    from engine.io.results import open_result
 
     if every < 1:
         raise ValueError(f"every = {every}: must be at least 1")

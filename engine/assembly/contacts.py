@@ -6,7 +6,7 @@ body stays within a region over the run (fixed, hinged, or along its kinematic p
 From these come the contact stages the scene needs (bristle-bristle only if two bristles can
 meet, and so on), the contact history they keep (only where there is friction or damping),
 the mesh-mesh pair tables, and the contact stiffness each node and each body must be stable
-with (``engine.timestep``).
+with (``engine.assembly.timestep``).
 """
 from __future__ import annotations
 
@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
-from .kernels.contact_law import HISTORY_COLUMNS
-from .errors import SceneError
-from .kernels.mesh_contact import mesh_contact_stiffness, pair_stiffness
-from .timestep import BRISTLE_CONTACTS_PER_NODE
+from engine.kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
+from engine.kernels.contact_law import HISTORY_COLUMNS
+from engine.errors import SceneError
+from engine.kernels.mesh_contact import mesh_contact_stiffness, pair_stiffness
+from engine.assembly.timestep import BRISTLE_CONTACTS_PER_NODE
 
 
 @dataclass
@@ -115,7 +115,7 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
 
 
 def timestep_inputs(bristles, body_part, tables, needs: ContactNeeds) -> dict:
-    """The dict ``engine.timestep.automatic_dt`` takes: per node its mass, inertia, radius,
+    """The dict ``engine.assembly.timestep.automatic_dt`` takes: per node its mass, inertia, radius,
     modulus, the bristles and bodies that can touch it; per free or hinged colliding body the
     contact stiffness it can meet."""
     nodes, bonds = bristles.nodes, bristles.bonds
@@ -231,7 +231,7 @@ def _roots_move(brushes, motion) -> np.ndarray:
 def _bristle_partners(brushes, x, rad, nbristle, bristle_first, n_bristle, motion,
                       cap=BRISTLE_CONTACTS_PER_NODE):
     """Per node, how many other bristles can touch its segments, counted up to ``cap`` (the
-    most the timestep charges a node, ``engine.timestep.BRISTLE_CONTACTS_PER_NODE``). Bristles
+    most the timestep charges a node, ``engine.assembly.timestep.BRISTLE_CONTACTS_PER_NODE``). Bristles
     whose roots are fixed, or ride on one rigid base, keep their roots' distances, and a
     point of a bristle stays within its reach (``_node_reach``) of its root: node i of
     bristle b and bristle c can meet only if |root_b - root_c| <= reach_i + reach of c's

@@ -15,18 +15,18 @@ from typing import Callable, Optional, Union
 
 import numpy as np
 
-from .build import System, grow_lists
-from .channels import run_channels, run_frame
-from .compile_clock import CompileClock
-from .diagnosis import dt_cause, instability
-from .errors import InstabilityError
-from .observables import energies
-from .output_paths import check_output_file
-from .observe import observer_calls
-from .recorder import Recorder
-from .state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
+from engine.assembly.system import System, grow_lists
+from engine.stepping.channels import run_channels, run_frame
+from engine.stepping.compile_clock import CompileClock
+from engine.stepping.diagnosis import dt_cause, instability
+from engine.errors import InstabilityError
+from engine.stepping.observables import energies
+from engine.io.output_paths import check_output_file
+from engine.stepping.observe import observer_calls
+from engine.io.recorder import Recorder
+from engine.state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
                     OVERFLOW_PAIRS, STAGES, timed_slots)
-from .kernels.stepper import advance
+from engine.kernels.stepper import advance
 
 ENERGY_BALANCE_LIMIT = 1.0  # |drift of (total + dissipated - work)| / largest energy seen
 ENERGY_FLOOR = 1e-18  # J: below this every energy is round-off and the balance is not judged
@@ -56,8 +56,8 @@ class RunResult:
     frames: int = 0
 
     def open(self):
-        """Open the result file with the reader (``engine.results.open_result``)."""
-        from .results import open_result
+        """Open the result file with the reader (``engine.io.results.open_result``)."""
+        from engine.io.results import open_result
         return open_result(self.path)
 
 
@@ -77,7 +77,7 @@ def run(system: System, until: Optional[float] = None,
     """Advance ``system`` to simulated time ``until`` (default: the scene's run.duration),
     recording to the HDF5 file ``output`` (a temporary file if None; no file if False).
 
-    ``observer`` (:mod:`engine.observe`: a callable ``observer(frame)``, or an object with
+    ``observer`` (:mod:`engine.stepping.observe`: a callable ``observer(frame)``, or an object with
     ``append(frame)`` and optionally ``begin(channels, static)``, e.g.
     :class:`engine.MemoryObserver`) receives every recorded frame in memory, the same
     frames the HDF5 recorder (itself one observer) writes.
@@ -263,7 +263,7 @@ def _advance(system: System, n: int) -> int:
 
 def run_steps(system: System, n_steps: int) -> None:
     """Advance ``system`` by exactly ``n_steps`` steps, recording nothing: for protocols that
-    read the live state between calls (:mod:`engine.quasistatic`). A blow-up raises
+    read the live state between calls (:mod:`engine.stepping.quasistatic`). A blow-up raises
     :class:`InstabilityError`, as in :func:`run`."""
     done = 0
     while done < n_steps:
@@ -272,7 +272,7 @@ def run_steps(system: System, n_steps: int) -> None:
 
 def _refresh_forces(system: System) -> None:
     """Evaluate bond energies of the initial state (no time advance)."""
-    from .kernels.bonds import bond_forces
+    from engine.kernels.bonds import bond_forces
     nd, bn = system.nodes, system.bonds
     bond_forces(nd.x, nd.v, nd.q, nd.w, bn.i, bn.j, bn.kn, bn.ks, bn.kb, bn.ksb, bn.kt, bn.L0,
                 bn.cn, bn.cs, bn.cb, bn.ct, bn.f, bn.ti, bn.tj, bn.energy, bn.diss, bn.bend,

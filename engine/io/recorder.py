@@ -2,7 +2,7 @@
 
 The recorder is generic: the run loop declares its per-frame *channels* (dataset path ->
 per-frame shape and dtype) and its *statics* (arrays written once), then appends one frame at a
-time. The layout is documented in ``docs/results.md``; :mod:`engine.results` is the one reader.
+time. The layout is documented in ``docs/results.md``; :mod:`engine.io.results` is the one reader.
 
 :func:`state_channels` and :func:`state_frame` declare and fill the channels that let a file
 check its own physics (node velocities and spins, body motion codes, masses and inertias as
@@ -25,7 +25,7 @@ Killed-run safety (SIGKILL, not power loss)
   inside ``__init__`` leaves only the temporary file behind.
 * File locking is off in the writer and the reader (``locking=False``): SWMR, not locks, keeps
   readers consistent; a reader can open the file while the run writes it, and after the writer
-  was killed. Readers open a live or killed file with ``swmr=True`` (see ``engine.results``).
+  was killed. Readers open a live or killed file with ``swmr=True`` (see ``engine.io.results``).
 * Attribute writes after ``__init__`` (``set_attrs``, ``close``) happen in SWMR mode. Creating
   attributes is outside what SWMR formally guarantees to *concurrent* readers, but it never
   makes the file unopenable. Text attributes are fixed-length (see ``_text``) so that a kill
@@ -44,8 +44,8 @@ import h5py
 import numpy as np
 from h5py import h5f, h5p
 
-from .jsonable import json_text
-from .output_paths import refuse_special
+from engine.jsonable import json_text
+from engine.io.output_paths import refuse_special
 
 FORMAT = "brush-studio-result"
 FORMAT_VERSION = 1
@@ -275,7 +275,7 @@ class Recorder:
             self._closed = True
             self._file.close()
         try:  # the ParaView/VisIt description beside it (docs/results.md); never fatal
-            from .xdmf import write_xdmf
+            from engine.io.xdmf import write_xdmf
             write_xdmf(self.path)
         except Exception:
             pass
@@ -288,7 +288,7 @@ class Recorder:
         if exc is None:
             self.close("completed")
             return False
-        from .errors import RunCancelled  # local: keep the recorder importable on its own
+        from engine.errors import RunCancelled  # local: keep the recorder importable on its own
         cancelled = isinstance(exc, (RunCancelled, KeyboardInterrupt))
         self.close("cancelled" if cancelled else "failed", error=error_dict(exc))
         return False
@@ -315,7 +315,7 @@ def state_channels(system) -> tuple[dict, dict]:
     """Channels and statics (beyond the run loop's own) that make a file's momentum and
     kinetic / gravity energy computable: channel group ``node_velocities`` (off by default)
     and, with group ``bodies``, each body's motion code per frame plus its mass properties.
-    ``system`` is an ``engine.build.System``."""
+    ``system`` is an ``engine.assembly.system.System``."""
     want = set(system.scene.run.channels)
     ch: dict[str, tuple] = {}
     static: dict[str, np.ndarray] = {}

@@ -27,9 +27,9 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .beam_theory import circle_second_moment, rod_frequency
-from .kernels.contact_law import SLIP_EACH_STEP, SLIP_FROZEN
-from .run import run_steps
+from engine.analysis.beam_theory import circle_second_moment, rod_frequency
+from engine.kernels.contact_law import SLIP_EACH_STEP, SLIP_FROZEN
+from engine.stepping.loop import run_steps
 
 
 @dataclass
@@ -81,7 +81,7 @@ def kinetic_tolerance_for(scene, force_tolerance: float) -> float:
 
 def lowest_bristle_period(scene) -> float:
     """Period of the first cantilever mode of the slowest bristle, s (Euler-Bernoulli with
-    the mean radius, :func:`engine.beam_theory.rod_frequency`); used to space the checks."""
+    the mean radius, :func:`engine.analysis.beam_theory.rod_frequency`); used to space the checks."""
     period = 0.0
     for br in scene.brushes:
         mat = scene.materials[br.material]

@@ -6,9 +6,9 @@ list of assembled stages (the ``Flags`` that switch the step loop's branches, na
 array indices back to brushes, bristles, nodes and bodies.
 
 :func:`build` reads as the data flow; each part has its builder: materials (here), bodies
-(``engine.build_bodies``), bristles, bonds and roots (``engine.build_bristles``, with the rest
-layout of ``engine.layout``), what can touch what (``engine.build_contacts``), node loads and
-the mission (``engine.build_loads``), the timestep (``engine.timestep.choose_dt``), and the
+(``engine.assembly.bodies``), bristles, bonds and roots (``engine.assembly.bristles``, with the rest
+layout of ``engine.model.layout``), what can touch what (``engine.assembly.contacts``), node loads and
+the mission (``engine.assembly.loads``), the timestep (``engine.assembly.timestep.choose_dt``), and the
 flags, stages and neighbour lists (here).
 """
 from __future__ import annotations
@@ -19,27 +19,27 @@ from typing import Optional
 
 import numpy as np
 
-from . import overlap
-from .kernels.bodies import FIXED
-from .build_bodies import BodyPart, build_bodies, start_on_profiles
-from .build_bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
-from .build_contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
-from .build_loads import build_loads, build_mission
-from .kernels.contact_law import (HISTORY_COLUMNS, NO_FRICTION, SLIP_EACH_STEP,
+from engine.assembly import overlap
+from engine.kernels.bodies import FIXED
+from engine.assembly.bodies import BodyPart, build_bodies, start_on_profiles
+from engine.assembly.bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
+from engine.assembly.contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
+from engine.assembly.loads import build_loads, build_mission
+from engine.kernels.contact_law import (HISTORY_COLUMNS, NO_FRICTION, SLIP_EACH_STEP,
                                   restitution_damping_ratio)
-from .errors import SceneError
-from .layout import quat_to_matrix
-from .kernels.mesh_contact import initial_overlap
-from .spec import Scene
-from .state import (ACC_SIZE, ACC_STEPS, ACC_TIME, LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING,
+from engine.errors import SceneError
+from engine.model.layout import quat_to_matrix
+from engine.kernels.mesh_contact import initial_overlap
+from engine.model.spec import Scene
+from engine.state import (ACC_SIZE, ACC_STEPS, ACC_TIME, LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING,
                     LIMIT_NODE_STEP, LIMIT_OVERLAP, LIMIT_SKIN, LIMITS_SIZE, STAGES, Bodies,
                     BodyList, Bonds, Flags, Loads, Mission, Nodes, PairList, Roots, Tables,
                     assembled_stages)
-from .timestep import MAX_BODY_STEP_RATIO, choose_dt, equalizing_scales
+from engine.assembly.timestep import MAX_BODY_STEP_RATIO, choose_dt, equalizing_scales
 
 MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
 MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
-# MAX_BODY_STEP_RATIO (engine.timestep): body surface displacement per step / smallest
+# MAX_BODY_STEP_RATIO (engine.assembly.timestep): body surface displacement per step / smallest
 # bristle radius
 CHECK_EVERY = 16
 TIME_EVERY = 64
@@ -191,7 +191,7 @@ def build_materials(scene: Scene) -> tuple[Tables, dict]:
 
 def _check_initial_overlap(scene: Scene, bristles: BristlePart, body_part: BodyPart,
                            warnings: list) -> None:
-    """Warn about bristles that start inside a body (``engine.overlap``)."""
+    """Warn about bristles that start inside a body (``engine.assembly.overlap``)."""
     bonds, geoms, bodies = bristles.bonds, body_part.geometry, body_part.bodies
     overlap.check_build(scene, bristles.nodes.x, bristles.nodes.rad,
                         np.stack([bonds.i, bonds.j], 1), bristles.node_bristle,
@@ -218,7 +218,7 @@ def _check_mesh_overlap(body_part: BodyPart, warnings: list) -> None:
 
 def _timestep(scene: Scene, bristles: BristlePart, body_part: BodyPart, tables: Tables,
               needs: ContactNeeds, warnings: list) -> tuple[float, float, str]:
-    """``(dt, dt_stable, limited_by)`` of ``engine.timestep.choose_dt``, after scaling the
+    """``(dt, dt_stable, limited_by)`` of ``engine.assembly.timestep.choose_dt``, after scaling the
     node masses and inertias when the scene asks to equalize them (quasi-static runs)."""
     nodes = bristles.nodes
     N = nodes.x.shape[0]
@@ -271,7 +271,7 @@ def _pair_list(cap: int, history: bool) -> PairList:
     (the kept tangential force, the energy released on letting go, the dashpot force:
     ``contact_law.contact_with_history``) only where there is friction or damping, else no
     rows."""
-    from .kernels.contacts import NSLOT
+    from engine.kernels.contacts import NSLOT
     c = cap * NSLOT
     h = c if history else 0
     return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
@@ -286,7 +286,7 @@ def _pair_list(cap: int, history: bool) -> PairList:
 def _body_list(cap: int, history: bool) -> BodyList:
     """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each;
     history as in :func:`_pair_list`."""
-    from .kernels.body_contacts import BSLOT
+    from engine.kernels.body_contacts import BSLOT
     c = cap * BSLOT
     h = c if history else 0
     return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
@@ -309,7 +309,7 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.a[:n] = old.a[:n]
         new.b[:n] = old.b[:n]
         if old.ft.shape[0] > 0:
-            from .kernels.contacts import NSLOT
+            from engine.kernels.contacts import NSLOT
             new.ft[:n * NSLOT] = old.ft[:n * NSLOT]
         new.n[0] = n
         system.pairs = new
@@ -321,15 +321,15 @@ def grow_lists(system: System, which: int, needed: int) -> None:
         new.b[:n] = old.b[:n]
         new.deep[:n] = old.deep[:n]
         if old.ft.shape[0] > 0:
-            from .kernels.body_contacts import BSLOT
+            from engine.kernels.body_contacts import BSLOT
             new.ft[:n * BSLOT] = old.ft[:n * BSLOT]
         new.n[0] = n
         system.body_pairs = new
 
 
 def initial_lists(system: System) -> None:
-    from .state import OK
-    from .kernels.stepper import rebuild_lists
+    from engine.state import OK
+    from engine.kernels.stepper import rebuild_lists
     while True:
         code = rebuild_lists(system.nodes, system.bonds, system.bodies, system.pairs,
                              system.body_pairs, system.flags, system.limits[LIMIT_SKIN])

@@ -2,7 +2,7 @@
 number), the strict base model (unknown fields refused) and ``Pose``.
 
 The cross-reference problems a model validator raises are records ``field FS value FS message``
-joined by ``SEP``; ``engine.spec`` turns them back into one ``FieldProblem`` each.
+joined by ``SEP``; ``engine.model.spec`` turns them back into one ``FieldProblem`` each.
 """
 from __future__ import annotations
 

@@ -122,7 +122,7 @@ def write_xdmf(h5_path: Union[str, Path], xdmf_path: Optional[Union[str, Path]] 
     text = '<?xml version="1.0" ?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n' + \
         ET.tostring(root, encoding="unicode") + "\n"
     tmp = xdmf_path.with_suffix(".xdmf.tmp")
-    from .output_paths import refuse_special
+    from engine.io.output_paths import refuse_special
 
     refuse_special(xdmf_path, "XDMF file")  # never onto a device or a named pipe
     refuse_special(tmp, "XDMF temporary file")

@@ -1,6 +1,6 @@
 """Build, rigid bodies: each body's shape turned into the ``Bodies`` bundle (engine.state).
 
-Per body: its triangle mesh and mass properties (``engine.meshes``), its frame (the body frame
+Per body: its triangle mesh and mass properties (``engine.model.meshes``), its frame (the body frame
 sits at the centre of mass along the principal axes; ``Body.pose`` places the shape's own
 frame), its surface tables for the contact search (face normals, pseudo-normals, a triangle
 grid, mesh-mesh contact points) and its motion: fixed, free, hinged, or kinematic along a
@@ -13,15 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import meshes
-from .kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
-from .kernels.contact_law import HISTORY_COLUMNS
-from .errors import SceneError
-from .layout import quat_conj, quat_mul, quat_to_matrix
-from .kernels.mesh_contact import contact_points, point_contact_length
-from .kernels.rotations import matrix_to_quat, qlog
-from .spec import Scene
-from .state import Bodies
+from engine.model import meshes
+from engine.kernels.bodies import FIXED, FREE, HINGE, KINEMATIC
+from engine.kernels.contact_law import HISTORY_COLUMNS
+from engine.errors import SceneError
+from engine.model.layout import quat_conj, quat_mul, quat_to_matrix
+from engine.kernels.mesh_contact import contact_points, point_contact_length
+from engine.kernels.rotations import matrix_to_quat, qlog
+from engine.model.spec import Scene
+from engine.state import Bodies
 
 
 @dataclass
@@ -30,7 +30,7 @@ class BodyPart:
 
     bodies: Bodies
     names: list[str]
-    geometry: list            # engine.meshes.BodyGeometry per body
+    geometry: list            # engine.model.meshes.BodyGeometry per body
     shape_to_body: list       # per body, the quaternion body (principal) frame -> shape axes
     point_len: np.ndarray     # per body, the radius of a contact point's share of surface
 
@@ -297,7 +297,7 @@ def build_bodies(scene: Scene, mat_index: dict, orbit_n: float, warnings: list) 
 
 def start_on_profiles(bodies: Bodies) -> None:
     """Put the kinematic bodies on their profile at t = 0, and record the build pose."""
-    from .kernels.bodies import kinematic_state
+    from engine.kernels.bodies import kinematic_state
     for k in range(len(bodies.motion)):
         if bodies.motion[k] == KINEMATIC:
             kinematic_state(k, 0.0, bodies.seg_start, bodies.t0, bodies.t1, bodies.p0,

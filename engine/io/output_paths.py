@@ -17,7 +17,7 @@ import stat
 from pathlib import Path
 from typing import Optional, Union
 
-from .errors import BrushStudioError
+from engine.errors import BrushStudioError
 
 __all__ = ["OutputPathError", "output_file_problem", "output_dir_problem",
            "check_output_file", "check_output_dir", "refuse_special", "kind_of"]

@@ -6,7 +6,7 @@ static arrays before the first frame). ``frame`` maps channel names (``"time"``,
 ``"brushes/<name>/root_force"``, ``"nodes/positions"``...) to their values at that time; the
 arrays are the system's own and are only valid during the call (copy what you keep).
 
-The HDF5 :class:`engine.recorder.Recorder` is one such observer (``output=``);
+The HDF5 :class:`engine.io.recorder.Recorder` is one such observer (``output=``);
 :class:`MemoryObserver` keeps the requested channels in memory, with no file::
 
     obs = engine.MemoryObserver(["time", "brushes/brush/root_force"])

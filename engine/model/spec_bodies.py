@@ -7,7 +7,7 @@ from typing import Annotated, Literal, Optional, Union
 
 from pydantic import Field, model_validator
 
-from .spec_common import (FiniteFloat, NonNegativeFloat, NonZeroVector3, Pose, PositiveFloat,
+from engine.model.spec_common import (FiniteFloat, NonNegativeFloat, NonZeroVector3, Pose, PositiveFloat,
                           Vector3, _Model)
 
 

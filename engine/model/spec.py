@@ -16,9 +16,9 @@ from typing import Annotated, Literal, Optional, Union
 from pydantic import (Field, ValidationError,
                       field_validator, model_validator)
 
-from .errors import FieldProblem, SceneError
-from .spec_bodies import Body
-from .spec_common import (FS, SEP, FiniteFloat, NonNegativeFloat, Pose, PositiveFloat, Vector3,
+from engine.errors import FieldProblem, SceneError
+from engine.model.spec_bodies import Body
+from engine.model.spec_common import (FS, SEP, FiniteFloat, NonNegativeFloat, Pose, PositiveFloat, Vector3,
                           _Model)
 
 SCHEMA_VERSION = 1
@@ -133,7 +133,7 @@ class Orbit(_Model):
         """The mean motion, rad/s."""
         if self.mean_motion is not None:
             return float(self.mean_motion)
-        from .kernels.orbit import mean_motion_from_altitude
+        from engine.kernels.orbit import mean_motion_from_altitude
         return mean_motion_from_altitude(self.altitude)
 
 

@@ -2,17 +2,17 @@
 brush roots, bending moments per bond and each controller's record.
 
 Plain numpy over the ``System``'s arrays (the bond moments call the bond kernel once). The run
-records these per frame (``engine.channels``); tests and studies call them on a live system.
+records these per frame (``engine.stepping.channels``); tests and studies call them on a live system.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .kernels.bodies import FREE, HINGE
-from .build import System
-from .kernels.orbit import orbit_energy
-from .layout import quat_to_matrix
-from .state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
+from engine.kernels.bodies import FREE, HINGE
+from engine.assembly.system import System
+from engine.kernels.orbit import orbit_energy
+from engine.model.layout import quat_to_matrix
+from engine.state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
 
 #: per controller: (name, per-frame shape); forces and torques in the body's mesh axes,
 #: impulses and errors in world axes (engine.kernels.control)
@@ -32,7 +32,7 @@ RELEASE_CHANNELS = (("released", ()), ("release_time", ()))
 def controller_record(system: System, c: int) -> dict[str, np.ndarray]:
     """Controller c's current record (CONTROLLER_CHANNELS, and RELEASE_CHANNELS for a
     controller with ``release_below``)."""
-    from .kernels import control as C
+    from engine.kernels import control as C
     cs = system.mission.ctl_state[c]
     slots = {"commanded_force": C.S_CMD_F, "applied_force": C.S_APP_F,
              "commanded_torque": C.S_CMD_T, "applied_torque": C.S_APP_T,
@@ -55,8 +55,8 @@ def actuator_wrench(system: System, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The force and torque (world axes, N and N m) that body k's controllers applied at the
     last force evaluation: their held, clipped commands (``applied_force``/``applied_torque``,
     mesh axes) turned into the world as ``apply_controllers`` does. Zero without one."""
-    from .kernels import control as C
-    from .kernels.rotations import qmul, qrot
+    from engine.kernels import control as C
+    from engine.kernels.rotations import qmul, qrot
     force = np.zeros(3)
     torque = np.zeros(3)
     ms, q = system.mission, system.bodies.q
@@ -158,7 +158,7 @@ def bending_moments(system: System) -> np.ndarray:
     """Bending moment magnitude per bond at its midpoint (N m), from the current state: the
     bond kernel's own value (the gradient of the bond energy in the bending rotation,
     ``|k_b phi + k_sb e_z x d|``, which includes a tapered bond's shear coupling)."""
-    from .kernels.bonds import bond_forces
+    from engine.kernels.bonds import bond_forces
     nd, bn = system.nodes, system.bonds
     B = bn.i.shape[0]
     bend = np.zeros(B)

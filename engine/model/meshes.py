@@ -1,4 +1,4 @@
-"""Rigid-body geometry: a :class:`engine.spec_bodies.Body`'s shape turned into the arrays the
+"""Rigid-body geometry: a :class:`engine.model.spec_bodies.Body`'s shape turned into the arrays the
 engine uses.
 
 ``body_geometry`` builds the shape's triangle mesh with trimesh (primitives or a file), takes the
@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
-from . import spec_bodies
-from .errors import SceneError
+from engine.model import spec_bodies
+from engine.errors import SceneError
 
 if TYPE_CHECKING:
     import trimesh
@@ -110,7 +110,7 @@ def load_mesh_file(path: Union[str, Path], scale: float = 1.0,
     if not path.is_file():
         raise SceneError.single(field, str(path), "must name an existing mesh file "
                                 "(STL, OBJ or PLY)")
-    from .mesh_limits import mesh_bytes_problem
+    from engine.assembly.mesh_limits import mesh_bytes_problem
 
     fmt = path.suffix.lower().lstrip(".")
     if fmt in ("stl", "obj", "ply"):  # counts read from the bytes before trimesh parses

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import SceneError
-from .layout import quat_conj
-from .spec import Scene
-from .state import Loads, Mission
+from engine.errors import SceneError
+from engine.model.layout import quat_conj
+from engine.model.spec import Scene
+from engine.state import Loads, Mission
 
 
 def build_loads(scene: Scene, brushes: list, inv_mass: np.ndarray) -> Loads:
@@ -45,7 +45,7 @@ def build_loads(scene: Scene, brushes: list, inv_mass: np.ndarray) -> Loads:
 def build_mission(scene: Scene, orbit_n: float, body_names: list[str],
                   shape_to_body: list) -> Mission:
     """The mission layer's arrays: orbit, controllers (engine.kernels.control), external loads."""
-    from .kernels import control as C
+    from engine.kernels import control as C
     orbit = scene.environment.orbit
     orbit_arr = np.array([orbit_n, 1.0 if (orbit is not None and orbit.gravity_gradient)
                           else 0.0])

@@ -1,7 +1,7 @@
 """The tapered bristle element, one home for its formulas: the node masses and twist
 inertias of a bristle cut into frustum segments (:func:`node_masses`) and the exact frustum
-bond stiffnesses (:func:`frustum_bond_stiffness`). The build (:mod:`engine.build_bristles`)
-and the time-step estimate (:mod:`engine.estimate`) both use them; numpy only, so the
+bond stiffnesses (:func:`frustum_bond_stiffness`). The build (:mod:`engine.assembly.bristles`)
+and the time-step estimate (:mod:`engine.assembly.estimate`) both use them; numpy only, so the
 estimate stays numba-free.
 """
 from __future__ import annotations

@@ -178,7 +178,7 @@ def brush_layout(*, rows: int, columns: int, pitch: Sequence[float], pattern: st
                  tip_variance: float, seed: int, base_position=(0.0, 0.0, 0.0),
                  base_orientation=IDENTITY, mount_position=None,
                  mount_orientation: Optional[Sequence[float]] = None) -> BristleLayout:
-    """The rest layout of one brush (the fields of ``engine.spec.Brush``); the base pose is
+    """The rest layout of one brush (the fields of ``engine.model.spec.Brush``); the base pose is
     relative to the mount's pose (a body's ``pose``: its shape frame) when one is given."""
     n = int(n_nodes)
     pb = np.asarray(base_position, float)

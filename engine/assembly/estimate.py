@@ -3,7 +3,7 @@ the timestep and so of the steps, recorded frames, memory and result-file size.
 
 Nothing is allocated in proportion to the scene: the timestep comes from one representative
 bristle per brush (``n_nodes`` nodes, the build's own Gershgorin bound of
-:mod:`engine.timestep`), with every node charged the most contacts the build could give it
+:mod:`engine.assembly.timestep`), with every node charged the most contacts the build could give it
 (four neighbouring bristles, every colliding body). That bound is at least the build's, so
 the estimated dt is at most the build's (more steps, never fewer), within a small factor on
 the presets (``tests/engine/test_estimate.py``). It ignores the build's cap on dt from fast
@@ -19,7 +19,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Optional
 
-from .spec import Scene
+from engine.model.spec import Scene
 
 # The peak memory of a process that builds and runs the scene: a fixed part and a part per
 # node. Measured (ru_maxrss, kernels loaded from the cache) on 100 x 100 x 8 box-pressed
@@ -37,7 +37,7 @@ BYTES_FIXED = 768 * 2**20  # the interpreter, the libraries, the kernels (compil
 # bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels
 # (contacts: three counts) are per frame, brush or body and small
 _CHANNEL_NODE_BYTES = {"nodes": 3 * 8, "node_velocities": 6 * 8, "bending": 4}
-MAX_BRISTLE_CONTACTS = 4   # as engine.timestep.BRISTLE_CONTACTS_PER_NODE
+MAX_BRISTLE_CONTACTS = 4   # as engine.assembly.timestep.BRISTLE_CONTACTS_PER_NODE
 
 
 @dataclass(frozen=True)
@@ -97,8 +97,8 @@ def _bristle_omega2(scene: Scene, brush) -> float:
     charged the most contacts it could have."""
     import numpy as np
 
-    from .element import frustum_bond_stiffness, node_masses
-    from .timestep import equalizing_scales, node_bounds
+    from engine.assembly.element import frustum_bond_stiffness, node_masses
+    from engine.assembly.timestep import equalizing_scales, node_bounds
 
     mat = scene.materials[brush.material]
     E, rho = mat.youngs_modulus, mat.density
