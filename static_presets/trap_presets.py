@@ -4,10 +4,10 @@ force per contact, docs/scene.md). Loaded by ``generate.py``; ``studio.studies.t
 preset back and varies the speed, the adhesion and the pitch. SI units.
 
 Layout the study relies on: a brush ``brush`` of ``GRID`` x ``GRID`` bristles growing along +z
-from a base fixed in the world at z = ``ROOT_Z``, its tip plane (the tips' top) at ``tip_plane(brush)``; a free sphere ``bead``
-whose surface starts ``START_GAP`` above the tip plane, moving at ``ANGLE`` from -z in the x-z
-plane so that its centre crosses the tip plane at (``AIM[0]`` pitch, ``AIM[1]`` pitch) from the
-brush's centre.
+from a base fixed in the world at z = ``ROOT_Z``, its tip plane (the tips' top) at
+``tip_plane(brush)``; a free sphere ``bead`` whose surface starts ``START_GAP`` above the tip
+plane, moving at ``ANGLE`` from -z in the x-z plane so that its centre crosses the tip plane at
+(``AIM[0]`` pitch, ``AIM[1]`` pitch) from the brush's centre.
 """
 from __future__ import annotations
 
@@ -65,9 +65,10 @@ def micro_trap(silicone: dict, phi_sil_sil: float, seed_brush) -> dict:
     tip_z = tip_plane(brush)
     pos, vel = bead_start(tip_z, PITCH, SPEED)
     t_end = duration(SPEED, brush["bristle_length"])
+    mass_mg = GLASS["density"] * 4 / 3 * math.pi * BEAD_RADIUS ** 3 * 1e6
     desc = (
         "Issue 27 (item 4): the micro-object trap. A glass bead (radius "
-        f"{BEAD_RADIUS * 1000:g} mm, E 70 GPa, 2500 kg/m^3, {GLASS['density'] * 4 / 3 * math.pi * BEAD_RADIUS ** 3 * 1e6:.1f} mg) "
+        f"{BEAD_RADIUS * 1000:g} mm, E 70 GPa, 2500 kg/m^3, {mass_mg:.1f} mg) "
         f"fired at {SPEED:g} m/s, {ANGLE / DEG:g} deg from the brush's axis, into a sticky "
         f"brush of {GRID} x {GRID} of the seed's silicone bristles (33 mm, conical 1.0 -> 0.5 "
         f"mm radius, E 2.7 MPa, nu 0.48, 1700 kg/m^3, {SILICONE_DAMPING:g} of critical damping "

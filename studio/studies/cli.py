@@ -11,10 +11,10 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 from __future__ import annotations
 
 from . import (detumble, docking, fur, optimise, reduce, refinement, rod_study, sensitivity,
-               spin_study, wedge_study)
+               spin_study, trap, wedge_study)
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
-                 reduce, fur, docking, optimise)
+                 reduce, fur, docking, trap, optimise)
 
 
 def register(subparsers) -> None:

@@ -19,7 +19,7 @@ from typing import Callable, Optional
 
 from engine.jsonable import jsonable_null as _json
 from . import (convergence, detumble, docking, fur, optimise, reduce, refinement,
-               rod_study, sensitivity, spin_study, wedge_study)
+               rod_study, sensitivity, spin_study, trap, wedge_study)
 from .options import StudyOptionError, StudyOptions, field_extra, form_fields, parse_options
 
 __all__ = ["Study", "REGISTRY", "STUDIES", "SERVER_OPTIONS", "SCENE_OPTIONS", "get",
@@ -66,6 +66,7 @@ REGISTRY: dict[str, Study] = {
     "reduce": Study("reduce", reduce.Options, reduce.run, reduce.add_parser),
     "fur": Study("fur", fur.Options, fur.run, fur.add_parser),
     "docking": Study("docking", docking.Options, docking.run, docking.add_parser),
+    "trap": Study("trap", trap.Options, trap.run, trap.add_parser),
     "optimise": Study("optimise", optimise.Options, optimise.run, optimise.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),
