@@ -77,6 +77,15 @@ def test_a_shot_is_judged_from_its_track():
     z3[-1] = -0.002
     assert analyse(t, *_track(z3, vz), touch, **geo)["outcome"] == "passed"
     assert analyse(t, *_track(z, vz, x=0.02), touch, **geo)["outcome"] == "escaped"
+    # inside, moving at 20 % of the impact speed and touching nothing: loose, not trapped;
+    # the same bead touching the brush is held
+    vz4 = vz.copy()
+    vz4[-1] = 0.2
+    free = touch.copy()
+    free[-1] = 0.0
+    out = analyse(t, *_track(z, vz4), free, **geo)
+    assert out["outcome"] == "loose" and not out["trapped"] and out["time_to_arrest"] is None
+    assert analyse(t, *_track(z, vz4), touch, **geo)["outcome"] == "trapped"
 
 
 def test_the_trap_study_is_registered_like_the_others():

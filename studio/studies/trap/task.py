@@ -1,19 +1,22 @@
 """One shot of ``study trap`` on a worker: run the scene, then the figures of the shot.
 
 Figures (SI): the depth reached (how far the bead's centre went below the tip plane, its
-largest value); how the shot ended: ``trapped`` (at the end its centre lies inside the
-brush's envelope: below the tip plane plus its radius, above the roots' plane, within the
-brush's footprint), ``rebounded`` (out through the tip plane), ``passed`` (through the roots'
-plane: a backing plate would take the hit) or ``escaped`` (out of the footprint's side);
-whether it is ``arrested`` (its speed at the end below ``ARREST_FRACTION`` of the impact
-speed) and the time to arrest (from the first contact to the first frame after which it
-stays so); the rebound speed (its speed at the end when it rebounded, else 0); whether it
-touches the brush at the end.
+largest value); whether it is ``arrested`` (its speed at the end below ``ARREST_FRACTION`` of
+the impact speed) and the time to arrest (from the first contact to the first frame after
+which it stays so); whether it touches the brush at the end; and how the shot ended:
 
-Why inside the envelope is the trap, not a speed threshold: a bead held on a bristle swings
-with it (the seed's 33 mm silicone bristle's first mode is about 8 Hz), at speeds that can
-exceed a few % of a slow impact; and the run lasts 2.5 crossings of the brush at the impact
-speed, so a bead that is still inside at the end has lost most of its speed or is held.
+* ``trapped``: at the end its centre lies inside the brush's envelope (below the tip plane
+  plus its radius, above the roots' plane, within the footprint) and it touches the brush
+  (held: adhered, or wedged) or is arrested;
+* ``loose``: inside the envelope, neither touching nor arrested (in flight between bristles
+  at the end: not counted as trapped);
+* ``rebounded`` (out through the tip plane; the rebound speed is its speed at the end),
+  ``passed`` (through the roots' plane: a backing plate would take the hit) or ``escaped``
+  (out of the footprint's side).
+
+Why not a speed threshold alone: a bead held on a bristle swings with it (the seed's 33 mm
+silicone bristle's first mode is about 8 Hz), at speeds that can exceed a few % of a slow
+impact. The run lasts 2.5 crossings of the brush at the impact speed.
 """
 from __future__ import annotations
 
@@ -47,7 +50,7 @@ def analyse(t, pos, vel, force, *, radius, tip_z, root_z, half_width) -> dict:
         if t_contact is not None:
             t_arrest = float(t[k] - t_contact)
     if inside_z and inside_xy:
-        outcome = "trapped"
+        outcome = "trapped" if (touching[-1] or slow[-1]) else "loose"
     elif end[2] <= root_z:
         outcome = "passed"
     elif not inside_xy:
