@@ -147,10 +147,13 @@ COLUMNS = ["run_id", "speed_m_s", "adhesion_mN", "pitch_mm", "shot", "status", "
 
 
 def _rows(outcomes) -> list[dict]:
+    """The table's rows; the depth in mm, at most the brush's depth (tips to roots' plane: a
+    bead that passed the roots flies on, which is no depth of the brush)."""
     rows = outcome_rows(outcomes, COLUMNS + ["depth"])
-    for r in rows:
+    for o, r in zip(outcomes, rows):
         if r.get("depth") not in (None, ""):
-            r["depth_mm"] = r["depth"] * 1e3
+            full = o.params["tip_z"] - o.params["root_z"]
+            r["depth_mm"] = min(r["depth"], full) * 1e3
     return rows
 
 
@@ -175,20 +178,33 @@ def _plot(out: Path, table) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    lines = sorted({(g["adhesion_mN"], g["pitch_mm"]) for g in table})
-    pitches = {p for _, p in lines}
-    for a, p in lines:
-        sel = [g for g in table if g["adhesion_mN"] == a and g["pitch_mm"] == p]
-        v = [g["speed_m_s"] for g in sel]
-        label = f"{a:g} mN" + (f", pitch {p:g} mm" if len(pitches) > 1 else "")
-        a1.semilogx(v, [g["fraction_trapped"] for g in sel], "o-", label=label)
-        a2.semilogx(v, [g["depth_mm"] for g in sel], "o-", label=label)
+    adhesions = sorted({g["adhesion_mN"] for g in table})
+    pitches = sorted({g["pitch_mm"] for g in table})
+    speeds = sorted({g["speed_m_s"] for g in table})
+    styles = ["-", "--", ":", "-."]
+    for i, a in enumerate(adhesions):
+        for j, p in enumerate(pitches):
+            sel = [g for g in table if g["adhesion_mN"] == a and g["pitch_mm"] == p]
+            if not sel:
+                continue
+            v = [g["speed_m_s"] for g in sel]
+            label = f"{a:g} mN" + (f", pitch {p:g} mm" if len(pitches) > 1 else "")
+            kw = dict(color=f"C{i}", linestyle=styles[j % 4], marker="os^v"[j % 4],
+                      label=label, alpha=0.85)
+            # the fractions of equal cases coincide: each line shifted by 1 % to stay visible
+            a1.semilogx(v, [g["fraction_trapped"] + 0.01 * (i - j) for g in sel], **kw)
+            a2.semilogx(v, [g["depth_mm"] for g in sel], **kw)
     a1.set_ylabel("fraction trapped")
     a1.set_ylim(-0.05, 1.05)
-    a2.set_ylabel("depth reached below the tips [mm]")
+    a2.set_ylabel("depth reached below the tips [mm]\n(at most the brush's depth)")
     for ax in (a1, a2):
         ax.set_xlabel("impact speed [m/s]")
+        ax.set_xticks(speeds)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(True, alpha=0.3)
         ax.legend(title="pull-off per contact", fontsize=8)
     fig.tight_layout()
