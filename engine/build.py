@@ -269,8 +269,8 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
 def _pair_list(cap: int, history: bool) -> PairList:
     """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; contact history
     (the kept tangential force, the energy released on letting go, the dashpot force:
-    ``contact_law.contact_with_history``) only where there is friction, damping or adhesion, else no
-    rows."""
+    ``contact_law.contact_with_history``) only where there is friction, damping or adhesion,
+    else no rows."""
     from .kernels.contacts import NSLOT
     c = cap * NSLOT
     h = c if history else 0

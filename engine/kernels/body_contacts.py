@@ -299,8 +299,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, adh_table, active,
-                            fc, cp,
-                            par_s, energy, diss, overlap_ratio, xf, dt):
+                            fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
