@@ -13,6 +13,24 @@ from studio.studies.trap.study import START_GAP, aim, trap_scene
 from studio.studies.trap.task import analyse
 
 
+def test_the_micro_trap_preset_builds_with_an_adhesive_bristle_bead_pair():
+    # the preset the study varies: its layout (brush 'brush', free sphere 'bead'), the
+    # bristle-bead pair adhesive, the model's range stated; it builds, with the time step
+    # set by the bead's contacts with the soft bristles (a glass-on-glass contact would set
+    # it ~25x smaller, hence no backing plate)
+    import engine
+    from studio import presets
+
+    scene = presets.load_preset("micro_trap")
+    bead = next(b for b in scene.bodies if b.name == "bead")
+    assert bead.motion.type == "free" and bead.shape.type == "sphere"
+    pair = scene.pair(scene.brushes[0].material, bead.material)
+    assert pair.adhesion_force > 0.0
+    assert "km/s" in scene.description and "outside" in scene.description
+    system = engine.build(scene)
+    assert system.dt > 1e-6, system.dt_limited_by
+
+
 def test_the_bead_is_aimed_through_its_point_of_the_cell_and_starts_clear_of_the_tips():
     # the line from the bead's start along its velocity must cross the tip plane at the aim
     # point (in pitches), the surface START_GAP above the tips; speed, pitch and pull-off as
