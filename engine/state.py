@@ -44,7 +44,7 @@ BodyList = namedtuple("BodyList", [
 Loads = namedtuple("Loads", [
     "node", "load", "force", "start", "times", "values", "frequency", "phase", "amp"])
 
-Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity"])
+Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity", "adhesion"])
 
 # the mission layer: ``orbit`` = [mean motion n (rad/s), gravity gradient on (1) or off (0)];
 # controllers (engine.kernels.control: ``ctl_index`` (C, 2), ``ctl_par``, ``ctl_state``);

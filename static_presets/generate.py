@@ -13,8 +13,9 @@ One module per preset family, beside this file: ``seed_values.py`` (what they sh
 thesis's materials, friction angles and brush), ``rod_presets.py`` (seed 4.1),
 ``wedge_presets.py`` (4.2), ``spin_presets.py`` (4.3, appendix H), ``impact_presets.py``
 (chapter 5: fur, plate, gripper), ``detumble_presets.py`` (the mission, issue 15) and
-``docking_presets.py`` (brush-assisted docking, issue 27) and ``capture_presets.py``
-(capture with a gripper brush on orbit, issue 27).
+``docking_presets.py`` (brush-assisted docking, issue 27), ``capture_presets.py``
+(capture with a gripper brush on orbit, issue 27) and ``trap_presets.py`` (the micro-object
+trap, issue 27).
 """
 from __future__ import annotations
 
@@ -62,11 +63,18 @@ def _capture_presets() -> list[dict]:
                                               seed.Q_Z_TO_MINUS_X)
 
 
+def _trap_presets() -> list[dict]:
+    """The micro-object trap (issue 27 item 4; ``trap_presets.py``, beside this file)."""
+    seed = _family("seed_values")
+    return _family("trap_presets").presets(seed.SILICONE, seed.PHI_SIL_SIL, seed.seed_brush)
+
+
 def all_presets() -> dict[str, dict]:
     _family("seed_values")  # (first: the families import it)
     scenes = [*_family("rod_presets").presets(), *_family("wedge_presets").presets(),
               *_family("spin_presets").presets(), *_family("impact_presets").presets(),
-              *_detumble_presets(), *_docking_presets(), *_capture_presets()]
+              *_detumble_presets(), *_docking_presets(), *_capture_presets(),
+              *_trap_presets()]
     return {s["name"]: s for s in scenes}
 
 

@@ -32,7 +32,8 @@ class ContactNeeds:
     friction_bristle: bool
     friction_body: bool
     friction_body_body: bool
-    history_bristle: bool         # contact history kept: friction or damping (restitution < 1)
+    history_bristle: bool         # contact history kept: friction, damping (restitution < 1)
+                                  # or adhesion
     history_body: bool
     history_body_body: bool
     node_partners: np.ndarray     # per node, how many other bristles can touch its segments
@@ -91,7 +92,8 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
                                         "only pairs of mesh bodies can be excluded; a "
                                         "sphere body touches every colliding body")
             bodybody_needed = True
-    zeta = tables.zeta
+    # damping or adhesion: either needs a history (the dashpot force, the adhered state)
+    zeta = tables.zeta + tables.adhesion
     any_pair = lambda table, m1, m2: any(table[a, b] > 0 for a in m1 for b in m2)  # noqa: E731
     friction_bristle = bb_needed and any_pair(mu, bristle_mats, bristle_mats)
     friction_body = bbody_needed and any_pair(mu, bristle_mats, body_mats)

@@ -170,7 +170,8 @@ def build(scene: Scene) -> System:
 # ----------------------------------------------------------------------------- builders
 def build_materials(scene: Scene) -> tuple[Tables, dict]:
     """The material tables (Young's moduli; per material pair the friction coefficient, the
-    tangential stiffness ratio and the damping ratio of the restitution) and gravity, with
+    tangential stiffness ratio, the damping ratio of the restitution and the pull-off force)
+    and gravity, with
     each material's index."""
     mat_names = list(scene.materials)
     mat_index = {m: i for i, m in enumerate(mat_names)}
@@ -179,14 +180,17 @@ def build_materials(scene: Scene) -> tuple[Tables, dict]:
     mu = np.zeros((M, M))
     ktr = np.full((M, M), 0.25)
     zeta = np.zeros((M, M))
+    adhesion = np.zeros((M, M))
     for a in range(M):
         for b in range(M):
             pair = scene.pair(mat_names[a], mat_names[b])
             mu[a, b] = math.tan(pair.friction_angle)
             ktr[a, b] = pair.tangential_ratio
             zeta[a, b] = restitution_damping_ratio(pair.restitution)
+            adhesion[a, b] = pair.adhesion_force
     gravity = np.asarray(scene.environment.gravity, float)
-    return Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity), mat_index
+    return (Tables(E=E_tab, mu=mu, kt=ktr, zeta=zeta, gravity=gravity, adhesion=adhesion),
+            mat_index)
 
 
 def _check_initial_overlap(scene: Scene, bristles: BristlePart, body_part: BodyPart,
@@ -269,8 +273,8 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
 def _pair_list(cap: int, history: bool) -> PairList:
     """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; contact history
     (the kept tangential force, the energy released on letting go, the dashpot force:
-    ``contact_law.contact_with_history``) only where there is friction or damping, else no
-    rows."""
+    ``contact_law.contact_with_history``) only where there is friction, damping or adhesion,
+    else no rows."""
     from engine.kernels.contacts import NSLOT
     c = cap * NSLOT
     h = c if history else 0

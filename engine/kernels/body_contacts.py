@@ -16,8 +16,8 @@ from numba import njit, prange
 
 from .bodies import FIXED, KINEMATIC, push_body
 from .bonds import PARALLEL_MIN
-from .contact_law import (HISTORY_COLUMNS, clear_history, contact_force, contact_with_history,
-                          normal_stiffness, smoothstep)
+from .contact_law import (HISTORY_COLUMNS, adhesion, clear_history, contact_force,
+                          contact_with_history, normal_stiffness, smoothstep)
 from .contacts import add_segment_force, segment_point_velocity
 from .jit import item_kernel
 from .geometry import row3, segment_point_closest, segment_triangle_closest
@@ -268,7 +268,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
-    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     active, fc, cp, par_s = bl.active, bl.fc, bl.cp, bl.par
     energy, diss, overlap_ratio, xf = bl.energy, bl.diss, bl.ratio, bl.xf
     if n_cand >= PARALLEL_MIN:
@@ -278,7 +278,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
-                                    zeta_table,
+                                    zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
     else:
@@ -288,7 +288,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
-                                    zeta_table,
+                                    zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
 
@@ -298,8 +298,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                             cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
                             sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
-                            grid_tris, E, mu_table, kt_table, zeta_table, active, fc, cp,
-                            par_s, energy, diss, overlap_ratio, xf, dt):
+                            grid_tris, E, mu_table, kt_table, zeta_table, adh_table, active,
+                            fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
@@ -464,9 +464,10 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         m1 = seg_material[sg]
         m2 = body_material[k]
         kn = weight * normal_stiffness(E[m1], r, E[m2], r)
-        Fx, Fy, Fz, dis, sto = contact_with_history(
+        Fx, Fy, Fz, dis, sto, fadh = contact_with_history(
             ft, slot, friction, nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn,
-            kt_table[m1, m2] * kn, mu_table[m1, m2], zeta_table[m1, m2], meff, dt)
+            kt_table[m1, m2] * kn, mu_table[m1, m2], zeta_table[m1, m2], meff, dt,
+            weight * adh_table[m1, m2])
         active[slot] = 1
         fc[slot, 0] = Fx
         fc[slot, 1] = Fy
@@ -482,11 +483,13 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         if slot_k == 2 and not inside:
             # the energy U = 1/2 w(s) k(r(s)) ov^2 also changes with the axis parameter s (the
             # fade w, the taper r and k proportional to r); the distance is stationary in s,
-            # so the rest of the gradient is dU/ds grad s (``_fade_forces``)
+            # so the rest of the gradient is dU/ds grad s (``_fade_forces``); an adhered
+            # contact adds -w(s) fa ov (``contact_law.adhesion``; fa at full weight)
             k0 = normal_stiffness(E[m1], r, E[m2], r)
             dr = rad[i1] - rad[i0]
+            fa0 = adh_table[m1, m2] if fadh != 0.0 else 0.0
             g = (0.5 * (dweight * k0 + weight * k0 * dr / r) * ov * ov
-                 + weight * k0 * ov * dr)
+                 + weight * k0 * ov * dr) - (dweight * ov + weight * dr) * fa0
             if sphere_r[k] > 0.0:
                 _point_fade_forces(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1],
                                    x[i1, 2], bpos[k, 0], bpos[k, 1], bpos[k, 2], s, g,
@@ -499,7 +502,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                     # and with the angle fade chi(d1): -1/2 w(s) k ov^2 grad chi, a couple on
                     # the segment's nodes (chi depends on d1 = l1 - l0 only) whose reaction
                     # on the body is the torque d1 x (that force on node 1)'s opposite
-                    h = 0.5 * (weight / chi) * k0 * ov * ov
+                    h = 0.5 * (weight / chi) * k0 * ov * ov - (weight / chi) * fa0 * ov
                     xf[slot, 0, 0] += h * cgx
                     xf[slot, 0, 1] += h * cgy
                     xf[slot, 0, 2] += h * cgz
@@ -755,7 +758,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
     collide, verts, tris, tnormal, pnormal = bd.collide, bd.verts, bd.tris, bd.tnormal, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
-    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     ft, scratch, bf, btq = bd.ft_bb, bd.scratch, bd.f, bd.tq
     nk = bpos.shape[0]
     count = 0
@@ -857,6 +860,16 @@ def body_body_contacts(bd, tb, friction, stats, dt):
             ft[k1, k2, 0] = f0
             ft[k1, k2, 1] = f1
             ft[k1, k2, 2] = f2
+            if adh_table[m1, m2] > 0.0:
+                fadh, state, d_a, s_a, r_a = adhesion(
+                    adh_table[m1, m2], int(ft[k1, k2, 5]), ov, vx * nx + vy * ny + vz * nz, dt)
+                ft[k1, k2, 5] = state
+                Fx += fadh * nx
+                Fy += fadh * ny
+                Fz += fadh * nz
+                dis += d_a
+                sto += s_a
+                rel += r_a
             ft[k1, k2, 3] = rel
             ft[k1, k2, 4] = fd
             push_body(bf, btq, a, rax, ray, raz, Fx, Fy, Fz)

@@ -6,7 +6,8 @@ restitution, the sum clipped at zero (never attractive). Tangential: an incremen
 kept per contact across steps (contact history), rotated into the current tangent plane each
 step, capped by Coulomb's ``|F_t| <= mu F_n`` on the total normal force F_n (spring + dashpot,
 clipped; seed eq. 3.8, mu = tan(phi)). :func:`contact_force` states the law and its energy
-exactly.
+exactly. An optional cohesive term (:func:`adhesion`, a pull-off force per contact) is added
+along the normal; without it (pull-off 0, the default) the law is the one above, bit for bit.
 """
 from __future__ import annotations
 
@@ -205,8 +206,47 @@ def smoothstep(u):
     return u * u * (3.0 - 2.0 * u)
 
 
-HISTORY_COLUMNS = 5  # per contact slot: kept tangential force (0-2), released energy (3),
-                     # dashpot force (4); ``contact_with_history``
+HISTORY_COLUMNS = 6  # per contact slot: kept tangential force (0-2), released energy (3),
+                     # dashpot force (4), adhered flag (5); ``contact_with_history``
+
+
+@njit(cache=True, inline="always")
+def adhesion(fa, adhered, overlap, vn, dt):
+    """The cohesive term of a contact with pull-off force ``fa`` (N, > 0), added to
+    :func:`contact_force`'s normal force. ``adhered`` (0 or 1) is the contact's state kept
+    from the last step, ``vn`` the normal relative velocity (> 0: separating, the overlap
+    shrinks). Returns ``(f, adhered, dissipated, stored, released)``: the normal force to add
+    (<= 0: attraction), the new state, and the energies as in ``contact_force``.
+
+    The law, exactly as computed here (a hysteretic constant-force cohesion, acting only
+    inside the overlap):
+
+    * a contact starts non-adhered (loading: the plain law); it becomes adhered at its first
+      step that unloads (``v_n > 0``) and stays so until it lets go (overlap <= 0, which
+      ``clear_history`` forgets);
+    * while adhered, the normal force is ``F_n = k_n overlap + f_d - f_a``: the attraction
+      ``f_a`` is added to the plain law's spring and dashpot, whose sum stays clipped at
+      zero, so the total is never below ``-f_a``: a contact holds against a pull of up to
+      ``f_a`` (the pull-off force) and no more. Coulomb's cap stays on the spring and
+      dashpot's force (``mu (F_n + f_a)``), so an adhered contact with no load has friction;
+    * energy: adhered, the attraction is the force of the potential ``-f_a overlap``, which
+      is booked in ``stored`` (negative: the well); turning adhered at an overlap delta
+      costs ``f_a delta`` (the work the attraction would have returned on loading), booked
+      as dissipated, exactly the trapezoid's ``f_a (delta_prev + delta) / 2`` with
+      ``delta_prev = delta + v_n dt``; letting go releases ``-f_a (delta - v_n dt / 2)``
+      (the step's trapezoid of a force that ends; negative or positive, O(f_a v dt)). A
+      loading-unloading cycle to a peak overlap delta_max thus loses ``f_a delta_max``:
+      the law never creates energy. A sphere (mass m, stiffness k_n, no damping) hitting at
+      v leaves at ``sqrt(v (v - v_c))`` and is held when ``v < v_c = 2 f_a / sqrt(k_n m)``.
+    """
+    now = adhered
+    dis = 0.0
+    if adhered == 0 and vn > 0.0:
+        now = 1
+        dis = fa * (overlap + 0.5 * vn * dt)
+    if now == 0:
+        return 0.0, 0, dis, 0.0, 0.0
+    return -fa, 1, dis, -fa * overlap, -fa * (overlap - 0.5 * vn * dt)
 
 
 @njit(cache=True, inline="always")
@@ -235,6 +275,7 @@ def clear_history(ft, slot, friction, diss):
     elif friction == SLIP_FROZEN:
         diss[slot] = 0.0
         ft[slot, 4] = 0.0
+        ft[slot, 5] = 0.0
     else:
         diss[slot] = ft[slot, 3]
         for c in range(HISTORY_COLUMNS):
@@ -243,13 +284,14 @@ def clear_history(ft, slot, friction, diss):
 
 @njit(cache=True, inline="always")
 def contact_with_history(ft, slot, friction, nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu,
-                         zeta, meff, dt):
+                         zeta, meff, dt, fa):
     """``contact_force`` reading and updating the history kept in ``ft[slot]`` (columns
     0-2: the kept tangential force; 3: the energy ``clear_history`` books if the slot lets
-    go; 4: the dashpot force of the last step). A list keeps that history (one row per slot)
-    where its contacts have friction or damping; without rows (``ft.shape[0] == 0``) a
-    contact starts afresh every step, which is exact when it has neither. Returns (Fx, Fy,
-    Fz, dissipated, stored)."""
+    go; 4: the dashpot force of the last step; 5: the adhered state of :func:`adhesion`,
+    with pull-off force ``fa``, 0 for none). A list keeps that history (one row per slot)
+    where its contacts have friction, damping or adhesion; without rows (``ft.shape[0] ==
+    0``) a contact starts afresh every step, which is exact when it has none. Returns (Fx,
+    Fy, Fz, dissipated, stored, f_adhesion), the last the attraction applied (0 or -fa)."""
     kept = slot < ft.shape[0]
     f0 = 0.0
     f1 = 0.0
@@ -264,10 +306,21 @@ def contact_with_history(ft, slot, friction, nx, ny, nz, overlap, vx, vy, vz, kn
     Fx, Fy, Fz, f0, f1, f2, fd, dis, sto, rel = contact_force(
         nx, ny, nz, overlap, vx, vy, vz, kn, kt, mu, zeta, meff, f0, f1, f2, friction, dt,
         fd_prev)
+    fadh = 0.0
+    if fa > 0.0 and kept:
+        fadh, state, d_a, s_a, r_a = adhesion(fa, int(ft[slot, 5]), overlap,
+                                               vx * nx + vy * ny + vz * nz, dt)
+        ft[slot, 5] = state
+        Fx += fadh * nx
+        Fy += fadh * ny
+        Fz += fadh * nz
+        dis += d_a
+        sto += s_a
+        rel += r_a
     if kept:
         ft[slot, 0] = f0
         ft[slot, 1] = f1
         ft[slot, 2] = f2
         ft[slot, 3] = rel
         ft[slot, 4] = fd
-    return Fx, Fy, Fz, dis, sto
+    return Fx, Fy, Fz, dis, sto, fadh

@@ -183,20 +183,20 @@ def bristle_bristle_narrow(nd, bn, pl, tb, friction, dt):
     bond_prev, bond_next = nd.bond_prev, nd.bond_next
     bi, bj, seg_has_next, seg_material = bn.i, bn.j, bn.has_next, bn.material
     pa, pb, n_pairs, ft = pl.a, pl.b, pl.n[0], pl.ft
-    E, mu_table, kt_table, zeta_table = tb.E, tb.mu, tb.kt, tb.zeta
+    E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     active, fc, cp, par_s, par_t = pl.active, pl.fc, pl.cp, pl.s, pl.t
     energy, diss, overlap_ratio, xf = pl.energy, pl.diss, pl.ratio, pl.xf
     if n_pairs >= PARALLEL_MIN:
         for p in prange(n_pairs):
             _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
                            seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
-                           zeta_table, active, fc, cp, par_s, par_t, energy, diss,
+                           zeta_table, adh_table, active, fc, cp, par_s, par_t, energy, diss,
                            overlap_ratio, xf, dt)
     else:
         for p in range(n_pairs):
             _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
                            seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
-                           zeta_table, active, fc, cp, par_s, par_t, energy, diss,
+                           zeta_table, adh_table, active, fc, cp, par_s, par_t, energy, diss,
                            overlap_ratio, xf, dt)
 
 
@@ -281,12 +281,14 @@ def _dsmooth01(u):
 
 
 @item_kernel
-def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
+def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out, fa):
     """Extra nodal forces of a crossing contact, whose energy is U = w * 1/2 kn ov^2 with
     a weight w(angle, s, t) and ov = ra(s) + rb(t) - d: the applied force kn w ov n covers the
     distance term; this adds -1/2 kn ov^2 grad w - kn w ov (dra grad s + drb grad t), with
     grad s, grad t from differentiating the closest-point conditions (interior points, where
-    w > 0). ``out`` (4, 3) gets the forces on nodes i0, i1, j0, j1, so U is conserved."""
+    w > 0). ``out`` (4, 3) gets the forces on nodes i0, i1, j0, j1, so U is conserved.
+    An adhered contact (``contact_law.adhesion``, attraction ``fa`` at full weight, else 0)
+    adds the potential ``-w fa ov``: U0 below is then 1/2 kn ov^2 - fa ov."""
     d1 = (x[i1, 0] - x[i0, 0], x[i1, 1] - x[i0, 1], x[i1, 2] - x[i0, 2])
     d2 = (x[j1, 0] - x[j0, 0], x[j1, 1] - x[j0, 1], x[j1, 2] - x[j0, 2])
     a11 = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
@@ -306,10 +308,10 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
     dps = _dsmooth01(ms / CROSS_END) / CROSS_END * (1.0 if s < 0.5 else -1.0)
     dpt = _dsmooth01(mt / CROSS_END) / CROSS_END * (1.0 if t < 0.5 else -1.0)
     w = chi * ps * pt
-    U0 = 0.5 * kn * ov * ov
+    U0 = 0.5 * kn * ov * ov - fa * ov
     # dU/ds and dU/dt at fixed positions (the distance is stationary in s, t)
-    cs_ = U0 * chi * dps * pt + kn * w * ov * (rad[i1] - rad[i0])
-    ct_ = U0 * chi * ps * dpt + kn * w * ov * (rad[j1] - rad[j0])
+    cs_ = U0 * chi * dps * pt + (kn * w * ov - w * fa) * (rad[i1] - rad[i0])
+    ct_ = U0 * chi * ps * dpt + (kn * w * ov - w * fa) * (rad[j1] - rad[j0])
     # grad of sin^2 w.r.t. d1 and d2
     f = -2.0 * a12 / (a11 * a22)
     det = a12 * a12 - a11 * a22
@@ -330,7 +332,7 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out):
 
 @item_kernel
 def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next, seg_material,
-                   pa, pb, ft, friction, E, mu_table, kt_table, zeta_table,
+                   pa, pb, ft, friction, E, mu_table, kt_table, zeta_table, adh_table,
                    active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
     a = pa[p]
     b = pb[p]
@@ -468,16 +470,17 @@ def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_
         m1 = seg_material[first]
         m2 = seg_material[second]
         kn = weight * normal_stiffness(E[m1], ra, E[m2], rb)
-        Fx, Fy, Fz, dis, sto = contact_with_history(
+        Fx, Fy, Fz, dis, sto, fadh = contact_with_history(
             ft, slot, friction, nx, ny, nz, ov, vax - vbx, vay - vby, vaz - vbz, kn,
             kt_table[m1, m2] * kn, mu_table[m1, m2], zeta_table[m1, m2], ma * mb / (ma + mb),
-            dt)
+            dt, weight * adh_table[m1, m2])
         active[slot] = 1
         if k == 4:
             # (the stored energy from the law is already w 1/2 kn ov^2 plus the tangential
             # spring's; overriding it by the normal part alone hid the spring's energy)
             crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov,
-                                   normal_stiffness(E[m1], ra, E[m2], rb), xf[slot])
+                                   normal_stiffness(E[m1], ra, E[m2], rb), xf[slot],
+                                   adh_table[m1, m2] if fadh != 0.0 else 0.0)
         if first == a and not (k == 1 or k == 3):
             fc[slot, 0] = Fx
             fc[slot, 1] = Fy

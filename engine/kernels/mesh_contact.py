@@ -48,7 +48,7 @@ from numba import njit
 
 from .bodies import FIXED, KINEMATIC, push_body
 from .body_contacts import closest_triangle, deep_closest, feature_normal
-from .contact_law import HISTORY_COLUMNS, contact_force, normal_stiffness
+from .contact_law import HISTORY_COLUMNS, adhesion, contact_force, normal_stiffness
 from .jit import item_kernel
 from .rotations import qrot, qrot_inv
 
@@ -203,7 +203,7 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
     ``build``: both closed meshes that collide, at least one moving). ``points`` holds each
     body's contact points (body frame), body k's from ``point_start[k]``; ``ft`` is the
     contact history per (global point, other body) (``contact_law.contact_with_history``'s
-    columns), with rows only where the pairs have friction or damping.
+    columns), with rows only where the pairs have friction, damping or adhesion.
     The pair's n touching points are found first, then each point's damper is sized with the
     reduced mass shared among them, so that a patch of n points has the pair's damping ratio
     (with the whole mass per point, n dampers in parallel are sqrt(n) times too strong, and
@@ -217,7 +217,7 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
     verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
-    mu_table, kt_table, zeta_table = tb.mu, tb.kt, tb.zeta
+    mu_table, kt_table, zeta_table, adh_table = tb.mu, tb.kt, tb.zeta, tb.adhesion
     ft, scratch, bf, btq = bd.ft_mesh, bd.scratch, bd.f, bd.tq
     nk = bpos.shape[0]
     for a in range(nk):
@@ -258,10 +258,10 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
             m2 = body_material[b]
             _apply_hits(a, b, na, hits_a, kn, kt_table[m1, m2] * kn, mu_table[m1, m2],
                         zeta_table[m1, m2], meff, pair_len[a, b], bv, bw, ft, friction, bf,
-                        btq, stats, dt)
+                        btq, stats, dt, adh_table[m1, m2])
             _apply_hits(b, a, nb, hits_b, kn, kt_table[m1, m2] * kn, mu_table[m1, m2],
                         zeta_table[m1, m2], meff, pair_len[a, b], bv, bw, ft, friction, bf,
-                        btq, stats, dt)
+                        btq, stats, dt, adh_table[m1, m2])
 
 
 @item_kernel
@@ -334,10 +334,11 @@ def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, ve
 
 @item_kernel
 def _apply_hits(s, t, n, hits, kn, kt, mu, zeta, meff, length, bv, bw, ft, friction, bf,
-                btq, stats, dt):
+                btq, stats, dt, fa):
     """The contact forces of body s's points inside body t found by
-    ``_find_points_in_body``: ``contact_force`` at each point, +F on s, -F on t, both at the
-    point. Adds [count, stored, dissipated, max depth / length] to ``stats``."""
+    ``_find_points_in_body``: ``contact_force`` at each point (with ``contact_law.adhesion``
+    of pull-off force ``fa`` per point where fa > 0), +F on s, -F on t, both at the point.
+    Adds [count, stored, dissipated, max depth / length] to ``stats``."""
     for h in range(n):
         i = int(hits[h, 0])
         d = hits[h, 1]
@@ -365,6 +366,16 @@ def _apply_hits(s, t, n, hits, kn, kt, mu, zeta, meff, length, bv, bw, ft, frict
         Fx, Fy, Fz, f0, f1, f2, fd, dis, sto, rel = contact_force(
             nx, ny, nz, d, vx, vy, vz, kn, kt, mu, zeta, meff, f0, f1, f2, friction, dt,
             fd_prev)
+        if fa > 0.0 and kept:
+            fadh, state, d_a, s_a, r_a = adhesion(fa, int(ft[i, t, 5]), d,
+                                                   vx * nx + vy * ny + vz * nz, dt)
+            ft[i, t, 5] = state
+            Fx += fadh * nx
+            Fy += fadh * ny
+            Fz += fadh * nz
+            dis += d_a
+            sto += s_a
+            rel += r_a
         if kept:
             ft[i, t, 0] = f0
             ft[i, t, 1] = f1

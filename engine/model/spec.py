@@ -45,6 +45,11 @@ class ContactPair(_Model):
                                description="normal coefficient of restitution; 1 = no damping")
     tangential_ratio: float = Field(0.25, gt=0.0, le=1.0, allow_inf_nan=False,
                                     description="k_t / k_n of the Cundall-Strack law")
+    adhesion_force: float = Field(
+        0.0, ge=0.0, le=1e6, allow_inf_nan=False,
+        description="pull-off force per contact, N: a cohesive attraction that acts once a "
+                    "contact unloads, until it lets go (engine.kernels.contact_law.adhesion; "
+                    "docs/scene.md); 0 = no adhesion")
 
 
 # --------------------------------------------------------------------------- brushes

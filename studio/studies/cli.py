@@ -10,15 +10,13 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import detumble, docking, fur, optimise, reduce, refinement, sensitivity
+from . import capture, detumble, docking, fur, optimise, reduce, refinement, sensitivity, trap
 from .rod import study as rod_study
 from .spin import study as spin_study
 from .wedge import study as wedge_study
-from . import capture
 
 STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
-                 reduce, fur, docking, optimise)
-STUDY_MODULES += (capture,)
+                 reduce, fur, docking, capture, trap, optimise)
 
 
 def register(subparsers) -> None:

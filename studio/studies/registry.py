@@ -23,7 +23,7 @@ from . import (convergence, detumble, docking, fur, optimise, reduce, refinement
 from .rod import study as rod_study
 from .spin import study as spin_study
 from .wedge import study as wedge_study
-from . import capture
+from . import capture, trap
 from .options import StudyOptionError, StudyOptions, field_extra, form_fields, parse_options
 
 __all__ = ["Study", "REGISTRY", "STUDIES", "SERVER_OPTIONS", "SCENE_OPTIONS", "get",
@@ -71,6 +71,7 @@ REGISTRY: dict[str, Study] = {
     "fur": Study("fur", fur.Options, fur.run, fur.add_parser),
     "docking": Study("docking", docking.Options, docking.run, docking.add_parser),
     "capture": Study("capture", capture.Options, capture.run, capture.add_parser),
+    "trap": Study("trap", trap.Options, trap.run, trap.add_parser),
     "optimise": Study("optimise", optimise.Options, optimise.run, optimise.add_parser),
     "convergence": Study("convergence", convergence.Options, convergence.run,
                          convergence.register, command=""),

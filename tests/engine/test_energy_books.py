@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine.kernels.contact_law import (SLIP_EACH_STEP, clear_history, contact_with_history,
-                                        restitution_damping_ratio)
+from engine.kernels.contact_law import (HISTORY_COLUMNS, SLIP_EACH_STEP, clear_history,
+                                        contact_with_history, restitution_damping_ratio)
 
 SILICONE = {"youngs_modulus": 2.7e6, "poisson_ratio": 0.48, "density": 1700.0}
 PLA = {"youngs_modulus": 3.5e9, "poisson_ratio": 0.36, "density": 1250.0}
@@ -114,7 +114,7 @@ def _law_books(omega_dt: float) -> float:
     dt = omega_dt / math.sqrt(kn / m)
     x = np.array([0.0, 0.001])
     v = np.array([0.3, -0.3])
-    ft = np.zeros((1, 5))
+    ft = np.zeros((1, HISTORY_COLUMNS))
     released = np.zeros(1)
     e0 = 0.5 * m * v @ v
     f = np.zeros(2)
@@ -129,9 +129,9 @@ def _law_books(omega_dt: float) -> float:
             stored = 0.0
             dissipated += released[0]
         else:
-            fx, fy, _, dis, stored = contact_with_history(
+            fx, fy, _, dis, stored, _ = contact_with_history(
                 ft, 0, SLIP_EACH_STEP, 0.0, 1.0, 0.0, -x[1], v_half[0], v_half[1], 0.0, kn,
-                0.25 * kn, 0.3, zeta, m, dt)
+                0.25 * kn, 0.3, zeta, m, dt, 0.0)
             f = np.array([fx, fy])
             dissipated += dis
         v = v_half + f * dt / (2 * m)

@@ -52,6 +52,8 @@ def test_a_dict_of_options_becomes_typed_options():
     ("spin", ["--cubes", "20", "--configs", "1", "--configs", "2", "--n-nodes", "5",
               "--random-cube", "40"],
      {"cubes": [20], "configs": "1,2", "nodes": 5, "random_cube": 40}),
+    ("trap", ["--speeds", "0.3,1", "--adhesions", "0,5", "--pitches", "3", "--shots", "2"],
+     {"speeds": [0.3, 1], "adhesions": "0,5", "pitches": [3], "shots": 2}),
     ("convergence", ["rod_tip_impulse", "-Q", "tip_deflection", "--dt-factor", "1,0.5"],
      {"scene": "rod_tip_impulse", "quantity": "tip_deflection", "dt_factor": [1, 0.5]}),
 ])
