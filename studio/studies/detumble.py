@@ -170,6 +170,7 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
 FIDELITIES = ("dem", "reduced")
 #: frames of a reduced run, s (default): an hour-long run keeps 36 000
 REDUCED_RECORD_INTERVAL = 0.1
+SPOT_MARGIN = 0.1            # s: the DEM spot check runs this much past its window
 #: channels of a reduced run: no bristles, so no nodes, root forces nor bending
 REDUCED_CHANNELS = ["bodies", "energy", "contacts"]
 
@@ -229,18 +230,27 @@ def reduced_scene(scene: dict, law: dict) -> dict:
 def window_figures(d: dict, t_end: float) -> dict:
     """Over [0, t_end] of a run (:func:`detumble_analysis.read_detumble`'s arrays): the
     change of the target's spin along its initial spin axis (rad/s), the mean and the peak
-    of the target's contact torque along that axis (N m) and the time of first contact."""
+    of the target's contact torque along that axis (N m; the mean by the trapezoid rule over
+    the recorded frames, which sample the torque every record interval) and the time of
+    first contact."""
     t = np.asarray(d["time"], float)
-    keep = t <= t_end * (1 + 1e-9)
-    w = np.asarray(d["omega"], float)[keep]
+    t_end = min(float(t_end), float(t[-1]))
+    keep = t < t_end
+    w_all = np.asarray(d["omega"], float)
+    tq_all = np.asarray(d["target_torque"], float)
+    # the window ends at t_end exactly (runs of different steps record at different times):
+    # the last values linearly interpolated between the frames around it
+    at_end = lambda a: np.array([np.interp(t_end, t, a[:, i]) for i in range(3)])  # noqa
+    w = np.vstack([w_all[keep], at_end(w_all)])
     axis = w[0] / max(float(np.linalg.norm(w[0])), 1e-300)
-    tq = np.asarray(d["target_torque"], float)[keep] @ axis
-    tt = t[keep]
-    contact = np.asarray(d["n_contacts"])[keep] > 0
-    return {"window_s": float(tt[-1]), "delta_omega": float((w[-1] - w[0]) @ axis),
+    tq = np.vstack([tq_all[keep], at_end(tq_all)]) @ axis
+    tt = np.append(t[keep], t_end)
+    contact = np.asarray(d["n_contacts"])[t <= t_end] > 0
+    return {"window_s": float(t_end), "delta_omega": float((w[-1] - w[0]) @ axis),
             "mean_torque": float(np.trapezoid(tq, tt) / max(tt[-1] - tt[0], 1e-300)),
             "peak_torque": float(np.abs(tq).max()),
-            "first_contact": float(tt[np.argmax(contact)]) if contact.any() else None}
+            "first_contact": (float(t[t <= t_end][np.argmax(contact)]) if contact.any()
+                              else None)}
 
 
 def spot_check_errors(dem: dict, reduced: dict) -> dict:
@@ -312,7 +322,8 @@ def build_specs(options: "Options", grid: dict):
             if spot:
                 # the DEM spot check: the same scenario's first seconds with the brush
                 dem = json.loads(json.dumps(scene))
-                dem["run"]["duration"] = min(spot, dem["run"]["duration"])
+                # (a little past the window, so that both runs' windows end at `spot`)
+                dem["run"]["duration"] = min(spot + SPOT_MARGIN, dem["run"]["duration"])
                 dem["run"].pop("stop", None)
                 specs.append(RunSpec(run_id=run_id + "_dem_spot", scene=dem,
                                      params=dict(params, fidelity="dem", spot_of=run_id),
