@@ -130,7 +130,8 @@ def test_energy_books_of_an_impact_close():
     # a lossy law (eta, rate damping, friction): the plate's kinetic energy before equals
     # its kinetic energy after plus the element's booked dissipation. The dissipation is
     # booked from the mid-step rate each step, an O(dt) quadrature of the loss over the
-    # ~5000 steps in contact: 1 % (the error halves with dt, checked below)
+    # ~5000 steps in contact (measured 6e-5 of the energy at dt = 2e-4): 1e-3, and the
+    # error must halve with dt (first order: a booking that missed a term would not)
     errors = []
     for dt in (2e-4, 1e-4):
         system = _impact(_law(q=0.0), 0.1, vx=0.05, dt=dt)
@@ -141,16 +142,17 @@ def test_energy_books_of_an_impact_close():
         assert system.bodies.v[1, 2] > 0.0
         assert e["dissipated"] > 0.2 * e0   # the law is lossy: the check is not vacuous
         errors.append(abs(e0 - e["kinetic"] - e["dissipated"]) / e0)
-    assert errors[0] < 0.01
+    assert errors[0] < 1e-3
     assert errors[1] < 0.7 * errors[0]   # first order in dt
 
 
 def test_lossless_law_gives_an_elastic_impact():
     # eta = 1, c = 0, mu = 0: the element's force is conservative (k d^p per point), so
-    # leapfrog returns the plate at its speed up to O(dt^2) over the contact; 1e-3
+    # leapfrog returns the plate at its speed up to O((omega dt)^2) ~ 1e-6 (omega ~ 5 rad/s
+    # at the deepest point, dt = 2e-4); 1e-5
     system = _impact(_law(eta=1.0, c=0.0, mu=0.0), 0.1, dt=2e-4)
     engine.run(system, output=False)
-    assert system.bodies.v[1, 2] == pytest.approx(0.1, rel=1e-3)
+    assert system.bodies.v[1, 2] == pytest.approx(0.1, rel=1e-5)
     assert energies(system)["dissipated"] == pytest.approx(0.0, abs=1e-12)
 
 
