@@ -3,7 +3,6 @@
 summary (docs/scene.md, "Reduced brushes")."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

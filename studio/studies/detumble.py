@@ -247,7 +247,6 @@ def window_figures(d: dict, t_end: float) -> dict:
     w = np.vstack([w_all[keep], at_end(w_all)])
     axis = w[0] / max(float(np.linalg.norm(w[0])), 1e-300)
     tq = np.vstack([tq_all[keep], at_end(tq_all)]) @ axis
-    tt = np.append(t[keep], t_end)
     L_all = np.asarray(d["angular_momentum"], float)
     dL = (at_end(L_all) - L_all[0]) @ axis
     contact = np.asarray(d["n_contacts"])[t <= t_end] > 0
