@@ -51,11 +51,18 @@ Tables = namedtuple("Tables", ["E", "mu", "kt", "zeta", "gravity", "adhesion"])
 # ``external`` (K, 6): constant force and torque on free bodies, world axes
 Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "external"])
 
+# reduced brushes (engine.kernels.patch): per patch its body, law parameters (``patch.P_*``),
+# state (``patch.S_*``), which bodies it may touch (P, K); per sample point (body frame) its
+# area over the law's footprint; ``start`` (P + 1) the first point of each patch; ``hits``
+# and ``scratch`` working rows
+Patches = namedtuple("Patches", ["body", "par", "state", "pair", "start", "pts", "w", "hits",
+                                 "scratch"])
+
 Flags = namedtuple("Flags", [
     "bonds", "bond_damping", "bristle_bristle", "bristle_body", "body_body", "mesh_mesh",
     "friction_bristle", "friction_body", "friction_body_body", "rigid_bodies",
     "mounted_roots", "gravity", "loads", "local_damping", "track_energy", "check_every",
-    "time_every", "orbit", "controllers", "external_loads"])
+    "time_every", "orbit", "controllers", "external_loads", "patches"])
 
 # the step loop's limits (float64 array ``System.limits``, built by ``engine.build``)
 LIMIT_OVERLAP = 0        # largest contact overlap / node radius before InstabilityError
@@ -124,6 +131,8 @@ STAGE_TABLE = (
           "contacts between bodies, at least one of them free or hinged"),
     Stage("mesh_mesh_contacts", SLOT_BODY_BODY, lambda f: f.mesh_mesh,
           "the mesh-mesh part of body contacts: sample points of each hull against the other"),
+    Stage("patch_contacts", SLOT_BODY_BODY, lambda f: f.patches,
+          "reduced brushes: compliant patches with a fitted law against closed meshes"),
     Stage("tangential_history", None, _FRICTION,
           "Coulomb friction with tangential spring history in the contacts"),
     Stage("rigid_bodies", SLOT_INTEGRATE, lambda f: f.rigid_bodies,

@@ -25,6 +25,7 @@ from engine.assembly.bodies import BodyPart, build_bodies, start_on_profiles
 from engine.assembly.bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
 from engine.assembly.contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from engine.assembly.loads import build_loads, build_mission
+from engine.assembly.patches import build_patches, timestep_entries
 from engine.kernels.contact_law import (HISTORY_COLUMNS, NO_FRICTION, SLIP_EACH_STEP,
                                   restitution_damping_ratio)
 from engine.errors import SceneError
@@ -79,6 +80,8 @@ class System:
     body_frame_offset: list = field(default_factory=list)  # quaternion shape->body per body
     prescribed_motions: list = field(default_factory=list)  # changes by prescribe_motion
     mission: Optional[Mission] = None   # orbit, controllers, external body loads
+    patches: Optional[object] = None    # reduced brushes (engine.state.Patches)
+    patch_info: list = field(default_factory=list)  # per patch (engine.assembly.patches)
 
     @property
     def controller_names(self) -> list[str]:
@@ -132,10 +135,13 @@ def build(scene: Scene) -> System:
     start_with_mounts(bristles, body_part.bodies, placed_pos, placed_q)
     _check_initial_overlap(scene, bristles, body_part, warnings)
     needs = contact_needs(scene, bristles, body_part, tables, warnings)
+    patches, patch_info = build_patches(scene, body_part.bodies, body_part.names)
     node_free = bristles.nodes.inv_mass > 0
     loads = build_loads(scene, bristles.brushes, bristles.nodes.inv_mass)
-    dt, dt_stable, limited_by = _timestep(scene, bristles, body_part, tables, needs, warnings)
+    dt, dt_stable, limited_by = _timestep(scene, bristles, body_part, tables, needs, warnings,
+                                          patch_info)
     flags = build_flags(scene, bristles, body_part.bodies, tables, needs, node_free, loads)
+    flags = flags._replace(patches=bool(patch_info) and bool(patches.pair.any()))
     r_min = float(bristles.nodes.rad.min()) if bristles.nodes.rad.size else 0.0
     skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)
     mission = build_mission(scene, orbit_n, body_part.names, body_part.shape_to_body)
@@ -161,7 +167,8 @@ def build(scene: Scene) -> System:
                     bristle_first_node=bristles.bristle_first,
                     bristle_brush=bristles.bristle_brush, node_bristle=bristles.node_bristle,
                     warnings=warnings, body_geometry=body_part.geometry,
-                    body_frame_offset=body_part.shape_to_body, mission=mission)
+                    body_frame_offset=body_part.shape_to_body, mission=mission,
+                    patches=patches, patch_info=patch_info)
     if needs.bristle_bristle or needs.bristle_body:
         initial_lists(system)
     return system
@@ -221,13 +228,17 @@ def _check_mesh_overlap(body_part: BodyPart, warnings: list) -> None:
 
 
 def _timestep(scene: Scene, bristles: BristlePart, body_part: BodyPart, tables: Tables,
-              needs: ContactNeeds, warnings: list) -> tuple[float, float, str]:
+              needs: ContactNeeds, warnings: list,
+              patch_info: list = ()) -> tuple[float, float, str]:
     """``(dt, dt_stable, limited_by)`` of ``engine.assembly.timestep.choose_dt``, after scaling the
     node masses and inertias when the scene asks to equalize them (quasi-static runs)."""
     nodes = bristles.nodes
     N = nodes.x.shape[0]
     r_min = float(nodes.rad.min()) if N else 0.0
     sysinfo = timestep_inputs(bristles, body_part, tables, needs)
+    # reduced brushes: their stiffness on both bodies of each pair, as other contacts
+    sysinfo["bodies"] = list(sysinfo["bodies"]) + timestep_entries(
+        list(patch_info), body_part.bodies, body_part.names)
     if scene.environment.inertia_scaling == "equalize" and N:
         mass_scale, inertia_scale = equalizing_scales(sysinfo)
         nodes.inv_mass[:] /= mass_scale          # the weight (nodes.mass) stays physical
@@ -266,7 +277,8 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
                         else 0.0) != 0.0,
                  controllers=len(scene.controllers) > 0,
                  external_loads=any(any(b.external_force) or any(b.external_torque)
-                                    for b in scene.bodies))
+                                    for b in scene.bodies),
+                 patches=False)  # set by build once the patches are built
 
 
 # ----------------------------------------------------------------------------- lists

@@ -26,6 +26,7 @@ from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, buil
                             scatter_bristle_body)
 from .bonds import PARALLEL_MIN, bond_node_forces
 from .mesh_contact import mesh_mesh_contacts
+from .patch import patch_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
 from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
                        scatter_bristle_bristle, segment_bounds)
@@ -344,7 +345,7 @@ def check_state(nd, bd, fl, acc, err, dt, limits, time):
 
 @njit(cache=True)
 def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, limits, ms,
-                    time, want_energy, timed, c0, stats, orbit_n):
+                    time, want_energy, timed, c0, stats, orbit_n, pa):
     """Every force of the current state at ``time`` into ``nodes.f``/``t`` and
     ``bodies.f``/``tq`` (bonds, gravity, loads, contacts, roots onto mounted bodies, orbit,
     external loads, controllers, local damping), booking the step's work and dissipation
@@ -415,6 +416,17 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
             err[1] = stats[3]
             err[2] = limits[LIMIT_OVERLAP]
             return FAIL_OVERLAP_BODYBODY
+    if fl.patches:
+        # reduced brushes (engine.kernels.patch): their stored energy and contact count
+        # join the body-body ones, which the branch above set afresh this step
+        n_p, sto_p, dis_p = patch_contacts(bd, pa, dt)
+        if fl.body_body:
+            acc[ACC_N_BODYBODY] += n_p
+            acc[ACC_E_BODYBODY] += sto_p
+        else:
+            acc[ACC_N_BODYBODY] = n_p
+            acc[ACC_E_BODYBODY] = sto_p
+        acc[ACC_DISSIPATED] += dis_p
     if timed:
         c7 = _clock()
         stage_time[SLOT_BODY_BODY] += c7 - c6
@@ -437,7 +449,7 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
     if fl.local_damping:
         acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
                                              limits[LIMIT_LOCAL_DAMPING], dt)
-    if fl.track_energy and (fl.bristle_body or fl.mounted_roots):
+    if fl.track_energy and (fl.bristle_body or fl.mounted_roots or fl.patches):
         # work done by whatever drives kinematic bodies against the contact forces
         for k in range(bd.pos.shape[0]):
             if bd.motion[k] == KINEMATIC:
@@ -452,11 +464,13 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
 
 
 @njit(cache=True)
-def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits, ms):
+def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_steps, limits, ms,
+            pa):
     """Advance the system by up to ``n_steps`` steps. ``acc`` holds the time, the step count
     and the running energy/contact totals; ``limits`` = [max overlap / radius, max node step
     / radius, max body step (m), skin (m), local damping]; ``ms`` the mission layer (orbit,
-    controllers, external loads on bodies). Returns (code, steps done)."""
+    controllers, external loads on bodies); ``pa`` the reduced brushes (engine.kernels.patch).
+    Returns (code, steps done)."""
     skin = limits[LIMIT_SKIN]
     orbit_n = ms.orbit[0] if fl.orbit else 0.0
     stats = np.zeros(5)
@@ -466,7 +480,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         # present at t = 0 lost F dt / 2 of impulse and the leapfrog was first order
         code = evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, 0.0,
                                limits, ms, acc[ACC_TIME], fl.track_energy, False, 0.0, stats,
-                               orbit_n)
+                               orbit_n, pa)
         if code != OK:
             return code, 0
     for it in range(n_steps):
@@ -511,7 +525,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         want_energy = fl.track_energy and (last or fl.bond_damping)
         code = evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt,
                                limits, ms, t_new, want_energy, timed, c2 if timed else 0.0,
-                               stats, orbit_n)
+                               stats, orbit_n, pa)
         if code != OK:
             return code, it + 1
         if timed:

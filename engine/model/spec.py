@@ -458,6 +458,9 @@ def load_scene(path: Union[str, Path]) -> Scene:
         if body.shape.type == "mesh" and not Path(body.shape.file).is_absolute():
             body.shape = body.shape.model_copy(
                 update={"file": str((path.parent / body.shape.file).resolve())})
+        for patch in body.patches:  # reduced brushes' law files, as mesh files
+            if isinstance(patch.law, str) and not Path(patch.law).is_absolute():
+                patch.law = str((path.parent / patch.law).resolve())
     return scene
 
 

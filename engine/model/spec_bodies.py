@@ -173,6 +173,34 @@ Motion = Annotated[Union[FixedMotion, FreeMotion, HingeMotion, KinematicMotion],
                    Field(discriminator="type")]
 
 
+class Patch(_Model):
+    """A reduced brush on the body (issue 25, ``engine.kernels.patch``): a compliant
+    rectangle, its tip plane, that touches every other colliding closed mesh with a fitted
+    reduced law (``engine.model.reduced_law``, written by ``brush-studio study reduce``). Placed
+    like a mounted brush's base: ``pose`` in the body's pose frame, the patch normal (its
+    outward side, toward what it touches) along local +z, the tip plane through its origin,
+    the rectangle's sides along local x (``size[0]``) and y (``size[1]``)."""
+
+    name: str
+    law: Union[str, dict] = Field(
+        description="a law file (JSON, relative to the scene file) or the law itself")
+    pose: Pose = Pose()
+    size: Optional[tuple[PositiveFloat, PositiveFloat]] = Field(
+        None, description="m, the footprint a x b (default: the law's patch.size); the "
+                          "normal force is the law's force per unit area over it")
+    grid: Optional[tuple[Annotated[int, Field(ge=1, le=256)],
+                         Annotated[int, Field(ge=1, le=256)]]] = Field(
+        None, description="sample points along x and y (default: about square cells, 4 "
+                          "along the shorter side, at most 64 along the longer)")
+
+    @model_validator(mode="after")
+    def _law_ok(self):
+        if isinstance(self.law, dict):
+            from engine.model.reduced_law import check_law
+            check_law(self.law)
+        return self
+
+
 class Body(_Model):
     name: str
     material: str
@@ -197,3 +225,6 @@ class Body(_Model):
                                      "(Hill) axes, N: a disturbance such as a thruster bias")
     external_torque: Vector3 = Field(
         (0.0, 0.0, 0.0), description="constant torque on a free body, world axes, N m")
+    patches: list[Patch] = Field(
+        default_factory=list, description="reduced brushes carried by the body: compliant "
+                                          "patches with a fitted law (engine.kernels.patch)")

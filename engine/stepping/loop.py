@@ -251,7 +251,7 @@ def _advance(system: System, n: int) -> int:
     code, did = advance(system.nodes, system.bonds, system.roots, system.bodies, system.pairs,
                         system.body_pairs, system.loads, system.tables, system.flags,
                         system.acc, system.err, system.stage_time, system.dt, n,
-                        system.limits, system.mission)
+                        system.limits, system.mission, system.patches)
     if code in (OVERFLOW_PAIRS, OVERFLOW_BODY):
         lst = system.pairs if code == OVERFLOW_PAIRS else system.body_pairs
         grow_lists(system, code, int(lst.n[1]))
@@ -300,6 +300,10 @@ def _summary(system: System, status: str, wall: float, steps: int, stage_time0, 
     for slot in timed_slots(system.stages):
         stage_wall[STAGES[slot]] = float(spent[slot] * scale)
     stage_wall["recording"] = record_wall
+    # reduced brushes: their use, and where it lay outside the laws' fitted ranges
+    from engine.assembly.patches import out_of_range_warnings, summary as patch_summary
+    patch_rows = patch_summary(system)
+    patch_warnings = out_of_range_warnings(patch_rows)
     return {
         "status": status,
         "dt": system.dt,
@@ -321,5 +325,6 @@ def _summary(system: System, status: str, wall: float, steps: int, stage_time0, 
                          f"to the wall time outside recording"),
         "neighbour_rebuilds": int(system.acc[ACC_REBUILDS]),
         "max_overlap_ratio": float(system.acc[ACC_MAX_OVERLAP]),
-        "warnings": list(system.warnings),
+        "warnings": list(system.warnings) + patch_warnings,
+        **({"patches": patch_rows} if patch_rows else {}),
     }

@@ -29,7 +29,7 @@ import itertools
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Literal, Optional
 
 import numpy as np
 
@@ -166,6 +166,109 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
     return scene
 
 
+# ----------------------------------------------------------------------------- reduced
+FIDELITIES = ("dem", "reduced")
+#: frames of a reduced run, s (default): an hour-long run keeps 3 600 (each frame is flushed
+#: to disk, about 30 ms on the shared test machine: at 0.1 s the recording took 20 times the
+#: physics)
+REDUCED_RECORD_INTERVAL = 1.0
+SPOT_MARGIN = 0.1            # s: the DEM spot check runs this much past its window
+#: channels of a reduced run: no bristles, so no nodes, root forces nor bending
+REDUCED_CHANNELS = ["bodies", "energy", "contacts"]
+
+
+def reduced_scene(scene: dict, law: dict) -> dict:
+    """``scene`` (a detumble scene dict, :func:`detumble_scene`) with the chaser's brushes
+    replaced by one reduced brush (issue 25 item 4): a patch (``engine.kernels.patch``) of the
+    brush's footprint (``reduce.patch_size``: the root grid's extent plus one tip diameter)
+    on the chaser, its tip plane where the undeformed tips end (``bristle_length +
+    tip_radius`` along the base's +z, the brush's base pose), so the held offset gives the
+    same interference as the DEM brush. The law goes into the scene inline. A law fitted on
+    a brush with fewer bristles (``law.brush``) is taken per bristle: its footprint is
+    restated to the full brush's area times its bristle share, so the full brush carries
+    ``bristles / law bristles`` times its force at a depth (recorded in the inline law's
+    ``patch.size_restated``)."""
+    from engine.model.reduced_law import check_law
+    from .reduce import patch_size
+
+    scene = json.loads(json.dumps(scene))
+    law = json.loads(json.dumps(check_law(dict(law))))
+    mounted = [b for b in scene["brushes"] if b.get("mount") == CHASER]
+    brush = mounted[0]
+    a, b = patch_size(brush)
+    n_full = brush["rows"] * brush["columns"] * len(mounted)
+    lb = law.get("brush") or {}
+    if lb.get("rows") and lb.get("columns"):
+        n_law = int(lb["rows"]) * int(lb["columns"])
+        a_law, b_law = (float(v) for v in law["patch"]["size"])
+        want = a * b * len(mounted) * n_law / n_full
+        f = math.sqrt(want / (a_law * b_law))
+        law["patch"]["size_restated"] = {
+            "from": [a_law, b_law], "why": f"per bristle: the law's {n_law} bristles carry "
+                                          f"the share {n_law}/{n_full} of this footprint"}
+        law["patch"]["size"] = [a_law * f, b_law * f]
+    tip = brush["bristle_length"] + brush["tip_radius"]
+    patches = []
+    for i, br in enumerate(mounted):
+        base = br["base"]
+        from engine.model.layout import quat_to_matrix
+
+        R = quat_to_matrix(np.asarray(base["orientation"], float))
+        pos = np.asarray(base["position"], float) + R @ [0.0, 0.0, tip]
+        patches.append({"name": f"reduced_{br['name']}", "law": law,
+                        "pose": {"position": list(pos), "orientation": list(base["orientation"])},
+                        "size": [a, b]})
+    scene["brushes"] = [b for b in scene["brushes"] if b.get("mount") != CHASER]
+    chaser = next(b for b in scene["bodies"] if b["name"] == CHASER)
+    chaser["patches"] = patches
+    scene["run"]["channels"] = list(REDUCED_CHANNELS)
+    scene["name"] = scene["name"] + "_reduced"
+    scene["description"] = ("Reduced brush (issue 25): the chaser's brush replaced by a "
+                            "compliant patch with a fitted law (engine.kernels.patch). "
+                            + scene["description"])
+    return scene
+
+
+def window_figures(d: dict, t_end: float) -> dict:
+    """Over [0, t_end] of a run (:func:`detumble_analysis.read_detumble`'s arrays): the
+    change of the target's spin along its initial spin axis (rad/s), the mean torque on it
+    along that axis (N m: the change of its angular momentum over the window, the contact
+    torque's impulse, over the window's length; the gravity-gradient torque is orders
+    smaller), the peak of its recorded contact torque along the axis (sampled at the
+    frames) and the time of first contact."""
+    t = np.asarray(d["time"], float)
+    t_end = min(float(t_end), float(t[-1]))
+    keep = t < t_end
+    w_all = np.asarray(d["omega"], float)
+    tq_all = np.asarray(d["target_torque"], float)
+    # the window ends at t_end exactly (runs of different steps record at different times):
+    # the last values linearly interpolated between the frames around it
+    at_end = lambda a: np.array([np.interp(t_end, t, a[:, i]) for i in range(3)])  # noqa
+    w = np.vstack([w_all[keep], at_end(w_all)])
+    axis = w[0] / max(float(np.linalg.norm(w[0])), 1e-300)
+    tq = np.vstack([tq_all[keep], at_end(tq_all)]) @ axis
+    L_all = np.asarray(d["angular_momentum"], float)
+    dL = (at_end(L_all) - L_all[0]) @ axis
+    contact = np.asarray(d["n_contacts"])[t <= t_end] > 0
+    return {"window_s": float(t_end), "delta_omega": float((w[-1] - w[0]) @ axis),
+            "mean_torque": float(dL / max(t_end - float(t[0]), 1e-300)),
+            "peak_torque": float(np.abs(tq).max()),
+            "first_contact": (float(t[t <= t_end][np.argmax(contact)]) if contact.any()
+                              else None)}
+
+
+def spot_check_errors(dem: dict, reduced: dict) -> dict:
+    """Relative errors of the reduced run against the DEM spot check over the same window:
+    (reduced - DEM) / |DEM| of Delta-omega, mean and peak torque."""
+    out = {}
+    for key in ("delta_omega", "mean_torque", "peak_torque"):
+        ref = dem.get(key)
+        val = reduced.get(key)
+        out[key] = (float((val - ref) / abs(ref)) if ref not in (None, 0.0) and val is not None
+                    else None)
+    return out
+
+
 # ----------------------------------------------------------------------------- task
 def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     """Dask task: run one detumble scene and summarise it (JSON-able)."""
@@ -180,7 +283,13 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
                   sn_curve=params.get("sn_curve"))
     if "fatigue" in data:
         write_fatigue_table(Path(h5_path).with_suffix(".fatigue.csv"), data["fatigue"])
+    if params.get("spot_check_s"):
+        out["window"] = window_figures(data, float(params["spot_check_s"]))
     s = result.summary
+    if s.get("patches"):
+        out["patches"] = s["patches"]
+        out["warnings"] = [w for w in s.get("warnings", []) if w.startswith("patch ")]
+    out["fidelity"] = params.get("fidelity", "dem")
     wall = s.get("wall_s") or 0.0
     out.update(status=result.status if result.status in ("completed", "stopped")
                else "failed", dt=system.dt, wall_s=wall, steps=s.get("steps"),
@@ -228,8 +337,23 @@ def build_specs(options: "Options", grid: dict):
             columns=options.columns, duration=options.duration,
             record_interval=options.record_interval, tilt_deg=tilt,
             tumble=tumble, offset=off)
-        specs.append(RunSpec(run_id=run_id, scene=scene, params=params,
-                             task="studio.studies.detumble:detumble_task"))
+        task = "studio.studies.detumble:detumble_task"
+        if options.fidelity == "reduced":
+            spot = options.spot_check_s
+            params.update(fidelity="reduced", spot_check_s=spot or None)
+            if spot:
+                # the DEM spot check: the same scenario's first seconds with the brush
+                dem = json.loads(json.dumps(scene))
+                # (a little past the window, so that both runs' windows end at `spot`)
+                dem["run"]["duration"] = min(spot + SPOT_MARGIN, dem["run"]["duration"])
+                dem["run"].pop("stop", None)
+                specs.append(RunSpec(run_id=run_id + "_dem_spot", scene=dem,
+                                     params=dict(params, fidelity="dem", spot_of=run_id),
+                                     task=task))
+            scene = reduced_scene(scene, grid["law"])
+            if options.record_interval is None:
+                scene["run"]["record_interval"] = REDUCED_RECORD_INTERVAL
+        specs.append(RunSpec(run_id=run_id, scene=scene, params=params, task=task))
     return specs
 
 
@@ -356,6 +480,20 @@ class Options(StudyOptions):
                           "bristle and the runs it survives. No default: no material data "
                           "is invented",
         json_schema_extra={"metavar": "MPA:CYCLES,..."})
+    fidelity: Literal["dem", "reduced"] = Field(
+        "dem", description="dem: the bristles (DEM); reduced: the brush replaced by a "
+                           "compliant patch with a fitted law (--law), at the rigid-body "
+                           "time step, for hour-long runs (docs/mission.md)")
+    law: Optional[str] = Field(None, description="the reduced law file (law.json of "
+                                                 "brush-studio study reduce); needed with "
+                                                 "--fidelity reduced",
+                               json_schema_extra={"metavar": "FILE"})
+    spot_check_s: float = Field(3.0, ge=0,
+                                description="with --fidelity reduced: the first seconds of "
+                                            "each scenario also run with the DEM brush, and "
+                                            "the reduced run's Delta-omega and torque over "
+                                            "them compared (0: none; default 3)",
+                                json_schema_extra={"metavar": "S", "unit": "s"})
     drift_time: float = Field(3600.0, gt=0,
                               description="how long the debris's free CW drift after the run "
                                           "is followed for the minimum chaser-debris distance "
@@ -407,6 +545,16 @@ def _grid(options: Options) -> dict:
         from .fatigue import parse_sn_curve
 
         parse_sn_curve(options.sn_curve)  # ValueError naming what is wrong, before any run
+    grid["law"] = None
+    if options.fidelity == "reduced":
+        if not options.law:
+            raise ValueError("--fidelity reduced needs --law FILE (law.json of brush-studio "
+                             "study reduce)")
+        from engine.model.reduced_law import load_law
+        try:
+            grid["law"] = load_law(options.law)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"--law {options.law!r}: {exc}") from None
     return grid
 
 
@@ -423,6 +571,7 @@ def _run_study(options: Options, out: Path) -> int:
                                desc="detumble runs", problem=problem)
     if code is not None:
         return code
+    outcomes = _attach_spot_checks(outcomes)
     summary = write_outputs(out, outcomes, options.threshold)
     print(f"{'run':36s} {'w0 deg/s':>8s} {'detumbled':>10s} {'F target':>9s} "
           f"{'dv m/s':>8s} {'stress/limit':>12s} {'thrust sat':>10s} {'contact s':>9s}")
@@ -435,8 +584,44 @@ def _run_study(options: Options, out: Path) -> int:
               f"{r['peak_target_force']:8.3g}N {r['delta_v']:8.3g} {ratio:>12s} "
               f"{_max_fraction(r.get('thrust_saturation')):>10s} "
               f"{r.get('time_in_contact', 0.0):9.3g}")
+    for r in summary["runs"]:
+        sc = r.get("spot_check")
+        if sc:
+            e = sc["relative_error"]
+            fmt = lambda v: "-" if v is None else f"{100 * v:+.0f} %"  # noqa: E731
+            print(f"spot check {r['run_id']}: DEM vs reduced over the first "
+                  f"{sc['dem']['window_s']:g} s: delta-omega {sc['dem']['delta_omega']:.3g} / "
+                  f"{sc['reduced']['delta_omega']:.3g} rad/s ({fmt(e['delta_omega'])}), mean "
+                  f"torque {sc['dem']['mean_torque']:.3g} / {sc['reduced']['mean_torque']:.3g} "
+                  f"N m ({fmt(e['mean_torque'])}), peak torque ({fmt(e['peak_torque'])})")
+        for w in r.get("warnings") or []:
+            print(f"warning {r['run_id']}: {w}")
     print(f"Wrote {out}/detumble_summary.json, detumble_summary.csv, omega.png")
     return report_failures(outcomes)
+
+
+def _attach_spot_checks(outcomes):
+    """Fold each DEM spot-check run into the reduced run it checks (its summary gets
+    ``spot_check``: the DEM and reduced window figures and their relative errors); the spot
+    runs themselves leave the list (a failed one stays, to be reported)."""
+    by_id = {o.run_id: o for o in outcomes}
+    keep = []
+    for o in outcomes:
+        of = o.params.get("spot_of")
+        if of is None:
+            keep.append(o)
+            continue
+        main = by_id.get(of)
+        if not o.ok:
+            keep.append(o)
+            continue
+        if main is not None and main.ok and "window" in main.summary and "window" in o.summary:
+            main.summary["spot_check"] = {
+                "dem": o.summary["window"], "reduced": main.summary["window"],
+                "relative_error": spot_check_errors(o.summary["window"],
+                                                    main.summary["window"]),
+                "dem_wall_s": o.summary.get("wall_s")}
+    return keep
 
 
 def _max_fraction(fractions) -> str:

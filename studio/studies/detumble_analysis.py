@@ -94,20 +94,27 @@ def read_detumble(h5_path: Path) -> dict:
         d["target_torque"] = np.asarray(res.series(f"{body}/contact_torque"))
         d["angular_momentum"] = np.asarray(res.body_angular_momentum(TARGET))
         mounted = [b for b in scene.brushes if b.mount == CHASER]
-        brush = mounted[0]
-        # the brushes' load on the chaser: their forces add; about the chaser's centre of
-        # mass their torques add too (issue 25 item 6)
-        d["chaser_force"], torque_com = brush_load_on_body(res, CHASER)
-        if torque_com is not None:
-            d["chaser_torque_com"] = torque_com
         d["chaser_mass"] = float(res.static(f"bodies/{CHASER}/mass"))
         for who in (TARGET, CHASER):
             d[f"{who}_position"] = np.asarray(res.series(f"bodies/{who}/position"))
             d[f"{who}_velocity"] = np.asarray(res.series(f"bodies/{who}/velocity"))
-        torques = [np.asarray(res.series(f"brushes/{b.name}/root_torque")) for b in mounted]
-        d["chaser_torque"] = np.stack(torques)[
-            np.argmax(np.stack([np.linalg.norm(t, axis=1) for t in torques]), axis=0),
-            np.arange(len(t))]
+        if mounted:
+            # the brushes' load on the chaser: their forces add; about the chaser's centre
+            # of mass their torques add too (issue 25 item 6)
+            d["chaser_force"], torque_com = brush_load_on_body(res, CHASER)
+            if torque_com is not None:
+                d["chaser_torque_com"] = torque_com
+            torques = [np.asarray(res.series(f"brushes/{b.name}/root_torque"))
+                       for b in mounted]
+            d["chaser_torque"] = np.stack(torques)[
+                np.argmax(np.stack([np.linalg.norm(t, axis=1) for t in torques]), axis=0),
+                np.arange(len(t))]
+        else:
+            # a reduced brush (a patch on the chaser, issue 25 item 4): the chaser's own
+            # recorded contact force and torque (about its centre of mass) are its load
+            d["chaser_force"] = np.asarray(res.series(f"bodies/{CHASER}/contact_force"))
+            d["chaser_torque"] = np.asarray(res.series(f"bodies/{CHASER}/contact_torque"))
+            d["chaser_torque_com"] = d["chaser_torque"]
         ctl = f"controllers/{CONTROLLER}"
         for key in ("delta_v", "angular_impulse_total", "attitude_error", "position_error",
                     "applied_force"):
@@ -118,10 +125,11 @@ def read_detumble(h5_path: Path) -> dict:
                 d[key] = np.asarray(res.series(f"{ctl}/{key}"))
         c = next(c for c in scene.controllers if c.name == CONTROLLER)
         d["hold_offset"] = np.asarray(c.position, float)
-        d["n_contacts"] = np.asarray(res.series("contacts/bristle_body"))
+        d["n_contacts"] = np.asarray(res.series(
+            "contacts/bristle_body" if mounted else "contacts/body_body"))
         d["peak_stress"] = peak_bending_stress(res)
         d["bristle_stress"] = bristle_bending_stress(res)
-        d["material"] = brush.material
+        d["material"] = mounted[0].material if mounted else "(reduced brush)"
         orbit = scene.environment.orbit
         d["mean_motion"] = orbit.n if orbit is not None else 0.0
     return d
