@@ -10,7 +10,7 @@ import pytest
 
 import engine
 from engine.model.layout import quat_to_matrix
-from studio.cli import main
+from studio.cli.main import main
 from studio.studies import detumble
 
 # a law of the kind study reduce writes, for a 1 x 2 brush of the detumble design
