@@ -303,12 +303,13 @@ def plot_omega(path: Path, runs: list[tuple[str, dict]], threshold: float) -> No
 
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for label, d in runs:
-        speed = np.linalg.norm(d["omega"], axis=1)
-        ax.plot(d["time"], np.degrees(speed), lw=1, label=label)
+        speed = np.degrees(np.linalg.norm(d["omega"], axis=1))
+        line, = ax.plot(d["time"], speed, lw=1, label=label)
+        if len(speed):  # each run's own threshold: a fraction of its own initial spin
+            ax.axhline(threshold * speed[0], color=line.get_color(), ls=":", lw=0.8)
     if runs:
-        w0 = np.degrees(np.linalg.norm(runs[0][1]["omega"][0]))
-        ax.axhline(threshold * w0, color="k", ls=":", lw=0.8,
-                   label=f"threshold ({threshold:g} x initial, first run)")
+        ax.plot([], [], color="k", ls=":", lw=0.8,
+                label=f"threshold ({threshold:g} x the run's initial |ω|, its colour)")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("target |ω| [deg/s]")
     ax.set_title("Detumble: the target's angular speed (relative to the Hill frame)",
