@@ -1,10 +1,10 @@
 """Brush Studio's DEM engine: bristles as chains of beam-bonded nodes, rigid debris bodies
 from triangle meshes, Cundall-Strack contacts with friction and history, HDF5 results.
 
-Its folders follow the data: ``model/`` (the scene model: spec, layout, shapes, motions, the
-reduced law's file), ``assembly/`` (scene -> arrays: bristles, bodies, contacts, loads, the
-time step and the cost estimate), ``stepping/`` (the run loop in Python around the compiled
-step, what it records and checks), ``kernels/`` (the numba step itself, typed on the bundles
+Its folders follow the data: ``model/`` (the scene model: spec, layout, shapes, the reduced
+law's file), ``assembly/`` (scene -> arrays: bristles, bodies, contacts, loads, the time step
+and the cost estimate), ``stepping/`` (the run loop in Python around the compiled step, what
+it records and checks, prescribed motions), ``kernels/`` (the numba step itself, typed on the bundles
 of ``state.py``), ``io/`` (the recorder, the result reader, exports) and ``analysis/``
 (closed forms and spectra used to check and read runs).
 
@@ -44,7 +44,7 @@ _EXPORTS = {
     "run_steps": "stepping.loop", "energies": "stepping.observables",
     "angular_momentum": "stepping.observables", "linear_momentum": "stepping.observables",
     "open_result": "io.results", "ResultFile": "io.results",
-    "MemoryObserver": "stepping.observe", "prescribe_motion": "model.motion",
+    "MemoryObserver": "stepping.observe", "prescribe_motion": "stepping.motion",
     "estimate": "assembly.estimate", "Cost": "assembly.estimate",
     "BrushStudioError": "errors", "SceneError": "errors", "InstabilityError": "errors",
 }

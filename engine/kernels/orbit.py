@@ -41,19 +41,6 @@ from numba import njit, prange
 from .bonds import PARALLEL_MIN
 from .rotations import qexp, qmul, qnormalize, qrot, qrot_inv
 
-#: Earth's gravitational parameter (m^3/s^2, WGS-84/EGM-96) and equatorial radius (m), used
-#: only to turn an altitude into a mean motion
-MU_EARTH = 3.986004418e14
-R_EARTH = 6378137.0
-
-
-def mean_motion_from_altitude(altitude: float) -> float:
-    """n = sqrt(mu / a^3) of a circular Earth orbit at ``altitude`` above the equatorial
-    radius (rad/s)."""
-    a = R_EARTH + altitude
-    return math.sqrt(MU_EARTH / a ** 3)
-
-
 @njit(cache=True, inline="always")
 def _one_minus_cos(th):
     s = math.sin(0.5 * th)
@@ -246,19 +233,3 @@ def orbit_energy_terms(n: float, gravity_gradient: bool, node_mass, node_x, moti
         gg = 0.5 * n2 * (np.asarray(Ip, float).sum(axis=1)[None, :] - 3.0 * Iw[..., 0])
         e += np.where(moving, gg, 0.0).sum(axis=1)
     return e
-
-
-def orbit_energy(system) -> float:
-    """The orbital part of the Jacobi integral of the current state (J):
-    :func:`orbit_energy_terms` of the live system."""
-    n = float(system.mission.orbit[0])
-    if n == 0.0:
-        return 0.0
-    from ..model.layout import quat_to_matrix
-    nd, bd = system.nodes, system.bodies
-    free = nd.inv_mass > 0
-    B = bd.pos.shape[0]
-    R = np.array([quat_to_matrix(bd.q[k]) for k in range(B)]).reshape(1, B, 3, 3)
-    return float(orbit_energy_terms(
-        n, system.mission.orbit[1] != 0.0, nd.mass[free], nd.x[free][None],
-        bd.motion[None], bd.mass, bd.pos[None], R, bd.Ip, bd.L[None])[0])

@@ -110,7 +110,7 @@ def load_mesh_file(path: Union[str, Path], scale: float = 1.0,
     if not path.is_file():
         raise SceneError.single(field, str(path), "must name an existing mesh file "
                                 "(STL, OBJ or PLY)")
-    from engine.assembly.mesh_limits import mesh_bytes_problem
+    from engine.model.mesh_limits import mesh_bytes_problem
 
     fmt = path.suffix.lower().lstrip(".")
     if fmt in ("stl", "obj", "ply"):  # counts read from the bytes before trimesh parses

@@ -114,6 +114,19 @@ class Load(_Model):
 
 
 # --------------------------------------------------------------------------- environment/run
+#: Earth's gravitational parameter (m^3/s^2, WGS-84/EGM-96) and equatorial radius (m), used
+#: only to turn an altitude into a mean motion
+MU_EARTH = 3.986004418e14
+R_EARTH = 6378137.0
+
+
+def mean_motion_from_altitude(altitude: float) -> float:
+    """n = sqrt(mu / a^3) of a circular Earth orbit at ``altitude`` above the equatorial
+    radius (rad/s)."""
+    a = R_EARTH + altitude
+    return math.sqrt(MU_EARTH / a ** 3)
+
+
 class Orbit(_Model):
     """A circular reference orbit: the scene lives in its Hill frame (x radial outwards,
     y along-track, z orbit normal) and every free node and body follows the
@@ -138,7 +151,6 @@ class Orbit(_Model):
         """The mean motion, rad/s."""
         if self.mean_motion is not None:
             return float(self.mean_motion)
-        from engine.kernels.orbit import mean_motion_from_altitude
         return mean_motion_from_altitude(self.altitude)
 
 

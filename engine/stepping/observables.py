@@ -10,7 +10,7 @@ import numpy as np
 
 from engine.kernels.bodies import FREE, HINGE
 from engine.assembly.system import System
-from engine.kernels.orbit import orbit_energy
+from engine.kernels.orbit import orbit_energy_terms
 from engine.model.layout import quat_to_matrix
 from engine.state import ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_HINGE_DISS, ACC_WORK
 
@@ -142,7 +142,7 @@ def mount_torques(system: System, reactions=None) -> dict[str, np.ndarray]:
     ``root_torque`` is about the brush base). ``reactions``: :func:`root_reactions`' value,
     if already computed."""
     reactions = root_reactions(system) if reactions is None else reactions
-    nd, rt, bd = system.nodes, system.roots, system.bodies
+    bd = system.bodies
     out = {}
     for b in system.brushes:
         if b.mount < 0:
@@ -166,3 +166,18 @@ def bending_moments(system: System) -> np.ndarray:
                 bn.cn, bn.cs, bn.cb, bn.ct, np.zeros((B, 3)), np.zeros((B, 3)),
                 np.zeros((B, 3)), np.zeros(B), np.zeros(B), bend, False, True, system.dt)
     return bend
+
+
+def orbit_energy(system) -> float:
+    """The orbital part of the Jacobi integral of the current state (J):
+    :func:`engine.kernels.orbit.orbit_energy_terms` of the live system."""
+    n = float(system.mission.orbit[0])
+    if n == 0.0:
+        return 0.0
+    nd, bd = system.nodes, system.bodies
+    free = nd.inv_mass > 0
+    B = bd.pos.shape[0]
+    R = np.array([quat_to_matrix(bd.q[k]) for k in range(B)]).reshape(1, B, 3, 3)
+    return float(orbit_energy_terms(
+        n, system.mission.orbit[1] != 0.0, nd.mass[free], nd.x[free][None],
+        bd.motion[None], bd.mass, bd.pos[None], R, bd.Ip, bd.L[None])[0])

@@ -8,24 +8,29 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.kernels.stepper", "engine.assembly.system")
+HEAVY = ("numba", "trimesh", "scipy", "distributed", "engine.kernels.stepper",
+         "engine.kernels.orbit", "engine.assembly.system")
 
 _CODE = """
 import json, sys
 import engine
 scene = engine.load_scene(sys.argv[1])
+orbit = engine.load_scene(sys.argv[2]).environment.orbit
+assert orbit.altitude is not None and orbit.n > 0   # the closed form, without the kernels
 try:
     engine.parse_scene({"schema_version": 1, "brushes": "no"})
 except engine.SceneError:
     pass
 engine.open_result, engine.ResultFile, engine.BrushStudioError, engine.InstabilityError
-print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))
+print(json.dumps(sorted(m for m in sys.argv[3:] if m in sys.modules)))
 """
 
 
 def test_loading_a_scene_imports_no_kernels():
     scene = ROOT / "static_presets" / "wedge_60.json"
-    p = subprocess.run([sys.executable, "-c", _CODE, str(scene), *HEAVY], cwd=ROOT,
+    orbiting = ROOT / "static_presets" / "detumble_upper_stage.json"   # orbit by altitude
+    p = subprocess.run([sys.executable, "-c", _CODE, str(scene), str(orbiting), *HEAVY],
+                       cwd=ROOT,
                        capture_output=True, text=True, check=True)
     assert json.loads(p.stdout) == []
 
@@ -50,7 +55,7 @@ import json, sys
 from studio.web import view as uv
 scene = json.load(open(sys.argv[1]))
 assert len(uv.design_bristles(scene).positions) and len(uv.design_bodies(scene))
-print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))
+print(json.dumps(sorted(m for m in sys.argv[3:] if m in sys.modules)))
 """
 
 

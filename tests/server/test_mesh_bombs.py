@@ -9,7 +9,7 @@ import resource
 import pytest
 import trimesh
 
-from engine.assembly.mesh_limits import mesh_bytes_problem, mesh_counts
+from engine.model.mesh_limits import mesh_bytes_problem, mesh_counts
 from studio.service.jobs import JobManager, MeshError, StorageError
 
 LIMIT = 200_000

@@ -49,7 +49,7 @@ class MeshStore:
                             f"one of {', '.join('.' + f for f in MESH_FORMATS)}")
         if not data:
             raise MeshError("the uploaded file is empty")
-        from engine.assembly.mesh_limits import mesh_bytes_problem
+        from engine.model.mesh_limits import mesh_bytes_problem
 
         # counts read from the bytes before trimesh parses anything: face arity, vertices,
         # any-case STL facets, the PLY header (a parse bomb costs seconds and gigabytes)
