@@ -169,8 +169,10 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
         if box.input_value() != name:
             box.click(force=True)
             try:
+                # 30 s: in a cold CI run with two xdist workers the page once stayed busy
+                # (software WebGL) through three 10 s tries
                 page.get_by_role("option", name=name, exact=True).click(force=True,
-                                                                         timeout=10_000)
+                                                                         timeout=30_000)
             except Exception:  # (a busy page missed the click that opens the list)
                 if attempt == 2:
                     raise
