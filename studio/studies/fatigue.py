@@ -81,11 +81,14 @@ def bristle_series(bond_stress: np.ndarray, bond_bristle: np.ndarray,
                    n_bristles: int) -> np.ndarray:
     """(frames, bristles): per frame, the largest stress over each bristle's bonds."""
     bond_stress = np.asarray(bond_stress, float)
+    bond_bristle = np.asarray(bond_bristle)
     out = np.zeros((bond_stress.shape[0], n_bristles))
-    for b in range(n_bristles):
-        mine = bond_bristle == b
-        if mine.any():
-            out[:, b] = bond_stress[:, mine].max(axis=1)
+    if bond_bristle.size == 0:
+        return out
+    order = np.argsort(bond_bristle, kind="stable")   # bonds grouped by bristle
+    owner = bond_bristle[order]
+    starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+    out[:, owner[starts]] = np.maximum.reduceat(bond_stress[:, order], starts, axis=1)
     return out
 
 
