@@ -106,11 +106,12 @@ def kinematic_segments(profile, com0: np.ndarray, q0: np.ndarray, shape_to_body:
 
 class _Surfaces:
     """The bodies' surface tables, body after body, concatenated at the end: vertices and
-    triangles in the body frames, face normals, pseudo-normals, the triangle grids (CSR,
+    triangles in the body frames, face normals, in-plane edge normals, pseudo-normals, the triangle grids (CSR,
     offsets shifted to index the concatenated lists) and the mesh-mesh contact points."""
 
     def __init__(self, K: int):
         self.verts, self.tris, self.normals, self.pnormals = [], [], [], []
+        self.edges = []
         self.grid_origin = np.zeros((K, 3))
         self.grid_cell = np.ones(K)
         self.grid_dims = np.ones((K, 3), np.int64)
@@ -135,6 +136,7 @@ class _Surfaces:
         nrm[~good] = 0.0
         self.normals.append(nrm)
         self.pnormals.append(meshes.pseudo_normals(vp, tris))
+        self.edges.append(meshes.edge_normals(vp, tris))
         origin, cell, dims, start, gtris = meshes.triangle_grid(vp, tris)
         self.grid_origin[k] = origin
         self.grid_cell[k] = cell
@@ -162,6 +164,7 @@ class _Surfaces:
             tris = np.concatenate(self.tris)
             normals = np.concatenate(self.normals)
             pnormals = np.concatenate(self.pnormals)
+            edges = np.concatenate(self.edges)
             g_start = np.concatenate(self.grid_start
                                      + [np.array([sum(len(x) for x in self.grid_tris)])])
             g_tris = np.concatenate(self.grid_tris) if self.grid_tris else np.zeros(0, np.int64)
@@ -170,11 +173,13 @@ class _Surfaces:
             tris = np.zeros((1, 3), np.int64)
             normals = np.zeros((1, 3))
             pnormals = np.zeros((1, 7, 3))
+            edges = np.zeros((1, 3, 3))
             g_start = np.zeros(1, np.int64)
             g_tris = np.zeros(0, np.int64)
         return dict(verts=np.ascontiguousarray(verts, float),
                     tris=np.ascontiguousarray(tris, np.int64),
                     tnormal=np.ascontiguousarray(normals),
+                    tedge=np.ascontiguousarray(edges),
                     pnormal=np.ascontiguousarray(pnormals),
                     grid_origin=self.grid_origin, grid_cell=self.grid_cell,
                     grid_dims=self.grid_dims, grid_base=self.grid_base,

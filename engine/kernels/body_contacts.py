@@ -27,7 +27,7 @@ from .rotations import qrot, qrot_inv
 @njit(cache=True)
 def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
                           out_deep, x, rad, bi, bj, seg_rmax, q, sphere_r, watertight, verts,
-                          tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                          tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
                           grid_base, grid_start, grid_tris, local):
     """(segment, body) pairs whose capsule and body surface are closer than ``skin``, or
     whose segment lies inside a closed body (a sphere, or a watertight mesh: then it may be
@@ -72,14 +72,14 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                                                x[i0, 1] - pos[k, 1], x[i0, 2] - pos[k, 2])
                 l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - pos[k, 0],
                                                x[i1, 1] - pos[k, 1], x[i1, 2] - pos[k, 2])
-                tri, _s, _u, _v, _w, d = closest_triangle(k, l0, l1, reach, verts, tris, tnormal,
+                tri, _s, _u, _v, _w, d = closest_triangle(k, l0, l1, reach, verts, tris, tnormal, tedge,
                                                           grid_origin, grid_cell, grid_dims,
                                                           grid_base, grid_start, grid_tris)
                 near = tri >= 0 and d < reach
                 if not near and watertight[k]:
                     # no face within reach: the segment does not cross the surface, so both
                     # ends are on the same side; one deep inside a closed body stays listed
-                    near = deep_closest(k, l0, reach, verts, tris, tnormal, pnormal,
+                    near = deep_closest(k, l0, reach, verts, tris, tnormal, tedge, pnormal,
                                         grid_origin, grid_cell, grid_dims, grid_base,
                                         grid_start, grid_tris)[0] >= 0
             if near:
@@ -89,11 +89,11 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                     flags = 0
                     if sphere_r[k] <= 0.0 and watertight[k]:
                         if 0.5 * skin >= rad[i0] or deep_closest(
-                                k, l0, rad[i0], verts, tris, tnormal, pnormal, grid_origin,
+                                k, l0, rad[i0], verts, tris, tnormal, tedge, pnormal, grid_origin,
                                 grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
                             flags |= 1
                         if 0.5 * skin >= rad[i1] or deep_closest(
-                                k, l1, rad[i1], verts, tris, tnormal, pnormal, grid_origin,
+                                k, l1, rad[i1], verts, tris, tnormal, tedge, pnormal, grid_origin,
                                 grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
                             flags |= 2
                     out_deep[n] = flags
@@ -102,14 +102,17 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
 
 
 @item_kernel
-def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_cell,
+def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, tedge, grid_origin, grid_cell,
                      grid_dims, grid_base, grid_start, grid_tris):
     """Closest triangle of body k to the segment l0-l1 (body frame) among the grid cells its
     box (inflated by rmax) overlaps, ignoring triangles whose plane both ends of the segment
-    are farther than rmax from (on the same side): they cannot be within rmax. Returns
+    are farther than rmax from (on the same side), or that both ends lie more than rmax
+    beyond one edge of (``_beyond_an_edge``): they cannot be within rmax. Returns
     (tri, s, u, v, w, dist); tri = -1 if none."""
     lo = grid_origin[k]
     cell = grid_cell[k]
+    # rejection beyond an edge only past this (ties at rmax are left to the exact test)
+    lim = rmax * (1.0 + 1e-9) + 1e-300
     best = -1
     bs = 0.0
     bu = 0.0
@@ -145,6 +148,8 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_ce
                     h1 = nx * (l1[0] - a0[0]) + ny * (l1[1] - a0[1]) + nz * (l1[2] - a0[2])
                     if (h0 > rmax and h1 > rmax) or (h0 < -rmax and h1 < -rmax):
                         continue
+                    if _beyond_an_edge(tri, l0, l1, lim, verts, tris, tedge):
+                        continue
                     s, u, v, w, d = segment_triangle_closest(
                         l0, l1, verts[tris[tri, 0]], verts[tris[tri, 1]], verts[tris[tri, 2]])
                     if d < bd:
@@ -161,7 +166,26 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, grid_origin, grid_ce
 
 
 @item_kernel
-def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, grid_dims,
+def _beyond_an_edge(tri, l0, l1, lim, verts, tris, tedge):
+    """Whether both ends of the segment l0-l1 lie more than ``lim`` beyond one of triangle
+    ``tri``'s edge planes (``tedge``: in-plane unit normals of edges ab, bc, ca pointing away
+    from the opposite vertex; zeros for slivers). The triangle lies behind each, so then the
+    whole segment is farther than ``lim`` from it: exact, and much cheaper than the
+    segment-triangle distance, which a cylinder's long facets otherwise all need."""
+    for e in range(3):
+        a = verts[tris[tri, e]]
+        mx = tedge[tri, e, 0]
+        my = tedge[tri, e, 1]
+        mz = tedge[tri, e, 2]
+        g0 = mx * (l0[0] - a[0]) + my * (l0[1] - a[1]) + mz * (l0[2] - a[2])
+        g1 = mx * (l1[0] - a[0]) + my * (l1[1] - a[1]) + mz * (l1[2] - a[2])
+        if g0 > lim and g1 > lim:
+            return True
+    return False
+
+
+@item_kernel
+def nearest_triangle(k, p, r0, verts, tris, tnormal, tedge, grid_origin, grid_cell, grid_dims,
                      grid_base, grid_start, grid_tris):
     """The closest triangle of body k to the point p (body frame) at any distance, by
     ``closest_triangle`` over a box that doubles from half-size ``r0`` until a triangle is
@@ -178,7 +202,7 @@ def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, gri
     far = math.sqrt(far)
     r = min(max(r0, 0.5 * cell), far)
     while True:
-        tri, _s, u, v, w, d = closest_triangle(k, p, p, r, verts, tris, tnormal, grid_origin,
+        tri, _s, u, v, w, d = closest_triangle(k, p, p, r, verts, tris, tnormal, tedge, grid_origin,
                                                grid_cell, grid_dims, grid_base, grid_start,
                                                grid_tris)
         if tri >= 0 or r >= far:
@@ -187,7 +211,7 @@ def nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell, gri
 
 
 @item_kernel
-def deep_closest(k, p, r0, verts, tris, tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+def deep_closest(k, p, r0, verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
                  grid_base, grid_start, grid_tris):
     """For a point p (body frame) of a closed (watertight) mesh body k: its closest triangle
     (tri, u, v, w, dist) if p lies inside the body, else tri = -1. Outside the grid's box
@@ -200,7 +224,7 @@ def deep_closest(k, p, r0, verts, tris, tnormal, pnormal, grid_origin, grid_cell
     for a in range(3):
         if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
             return -1, 0.0, 0.0, 0.0, 0.0
-    tri, u, v, w, d = nearest_triangle(k, p, r0, verts, tris, tnormal, grid_origin, grid_cell,
+    tri, u, v, w, d = nearest_triangle(k, p, r0, verts, tris, tnormal, tedge, grid_origin, grid_cell,
                                        grid_dims, grid_base, grid_start, grid_tris)
     if tri < 0:
         return -1, 0.0, 0.0, 0.0, 0.0
@@ -265,7 +289,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     cs, cb, deep, n_cand, ft, local = bl.s, bl.b, bl.deep, bl.n[0], bl.ft, bl.local
     bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
     sphere_r, watertight, body_material = bd.sphere_r, bd.watertight, bd.material
-    verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    verts, tris, tnormal, tedge, pnormal = bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
     E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
@@ -276,7 +300,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                                     cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                                    tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
@@ -286,7 +310,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
             _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                                     cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, pnormal, grid_origin, grid_cell, grid_dims,
+                                    tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
                                     grid_base, grid_start, grid_tris, E, mu_table, kt_table,
                                     zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
@@ -296,7 +320,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
 @item_kernel
 def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
                             cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
-                            sphere_r, watertight, body_material, verts, tris, tnormal, pnormal,
+                            sphere_r, watertight, body_material, verts, tris, tnormal, tedge, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
                             grid_tris, E, mu_table, kt_table, zeta_table, adh_table, active,
                             fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
@@ -367,21 +391,21 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                 pe = l0 if slot_k == 0 else l1
                 re = rad[i0] if slot_k == 0 else rad[i1]
                 tri, s, u, vv, ww, d = closest_triangle(k, pe, pe, re, verts, tris,
-                                                        tnormal, grid_origin, grid_cell,
+                                                        tnormal, tedge, grid_origin, grid_cell,
                                                         grid_dims, grid_base, grid_start,
                                                         grid_tris)
                 if tri < 0 and watertight[k] and (deep[c] >> slot_k) & 1:
                     # no face within the node's radius: the node may be deep inside a
                     # closed body, overlapping by more than its radius; push it out too
                     # (only where the candidate list says it can be: ``out_deep``)
-                    tri, u, vv, ww, d = deep_closest(k, pe, 2.0 * re, verts, tris, tnormal,
+                    tri, u, vv, ww, d = deep_closest(k, pe, 2.0 * re, verts, tris, tnormal, tedge,
                                                      pnormal, grid_origin, grid_cell,
                                                      grid_dims, grid_base, grid_start,
                                                      grid_tris)
                 s = float(slot_k)
             else:
                 rmax = max(rad[i0], rad[i1])
-                tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, tnormal,
+                tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, tedge,
                                                         grid_origin, grid_cell, grid_dims,
                                                         grid_base, grid_start, grid_tris)
                 # between the nodes only against edges and vertices: a face touching a
@@ -755,7 +779,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
     dissipated, max overlap ratio]."""
     bpos, bq, bv, bw, bmass, motion = bd.pos, bd.q, bd.v, bd.w, bd.mass, bd.motion
     sphere_r, watertight, body_material = bd.sphere_r, bd.watertight, bd.material
-    collide, verts, tris, tnormal, pnormal = bd.collide, bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    collide, verts, tris, tnormal, tedge, pnormal = bd.collide, bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
     E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
@@ -802,7 +826,7 @@ def body_body_contacts(bd, tb, friction, stats, dt):
                 scratch[0], scratch[1], scratch[2] = qrot_inv(
                     qw, qx, qy, qz, bpos[a, 0] - bpos[b, 0], bpos[a, 1] - bpos[b, 1],
                     bpos[a, 2] - bpos[b, 2])
-                tri, s_, u, vv, ww, d = closest_triangle(b, scratch, scratch, ra, verts, tris, tnormal,
+                tri, s_, u, vv, ww, d = closest_triangle(b, scratch, scratch, ra, verts, tris, tnormal, tedge,
                                                          grid_origin, grid_cell, grid_dims,
                                                          grid_base, grid_start, grid_tris)
                 if tri < 0:

@@ -153,7 +153,7 @@ def initial_overlap(bodies) -> tuple[int, float]:
         for b in range(bd.pos.shape[0]):
             if a != b and bd.mesh_kn[a, b] > 0.0:
                 n, depth = _deepest_points(a, b, bd.pos, bd.q, bd.point_start, bd.points,
-                                           bd.verts, bd.tris, bd.tnormal, bd.pnormal,
+                                           bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal,
                                            bd.grid_origin, bd.grid_cell, bd.grid_dims,
                                            bd.grid_base, bd.grid_start, bd.grid_tris,
                                            np.zeros(3))
@@ -163,7 +163,7 @@ def initial_overlap(bodies) -> tuple[int, float]:
 
 
 @njit(cache=True)
-def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, pnormal,
+def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, tedge, pnormal,
                     grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris,
                     scratch):
     """(how many of body s's contact points lie inside body t, the deepest one's depth)."""
@@ -175,7 +175,7 @@ def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, p
         scratch[0], scratch[1], scratch[2] = qrot_inv(
             bq[t, 0], bq[t, 1], bq[t, 2], bq[t, 3], bpos[s, 0] + rx - bpos[t, 0],
             bpos[s, 1] + ry - bpos[t, 1], bpos[s, 2] + rz - bpos[t, 2])
-        tri, _u, _v, _w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, pnormal,
+        tri, _u, _v, _w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, tedge, pnormal,
                                           grid_origin, grid_cell, grid_dims, grid_base,
                                           grid_start, grid_tris)
         if tri >= 0 and d > 0.0:
@@ -214,7 +214,7 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
     bound_r, body_material = bd.bound_r, bd.material
     point_start, points = bd.point_start, bd.points
     pair_kn, pair_len = bd.mesh_kn, bd.mesh_len
-    verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    verts, tris, tnormal, tedge, pnormal = bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
     mu_table, kt_table, zeta_table, adh_table = tb.mu, tb.kt, tb.zeta, tb.adhesion
@@ -238,11 +238,11 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
             hits_b = np.empty((point_start[b + 1] - point_start[b], HIT_SIZE))
             reach = pair_len[a, b]
             na = _find_points_in_body(a, b, reach, bpos, bq, bound_r, point_start, points, verts,
-                                      tris, tnormal, pnormal, grid_origin, grid_cell,
+                                      tris, tnormal, tedge, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
                                       scratch, hits_a, stats)
             nb = _find_points_in_body(b, a, reach, bpos, bq, bound_r, point_start, points, verts,
-                                      tris, tnormal, pnormal, grid_origin, grid_cell,
+                                      tris, tnormal, tedge, pnormal, grid_origin, grid_cell,
                                       grid_dims, grid_base, grid_start, grid_tris, ft,
                                       scratch, hits_b, stats)
             if na + nb == 0:
@@ -266,7 +266,7 @@ def mesh_mesh_contacts(bd, tb, friction, stats, dt):
 
 @item_kernel
 def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, verts, tris,
-                         tnormal, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
+                         tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
                          grid_start, grid_tris, ft, scratch, hits, stats):
     """Body s's contact points (``contact_points``) inside body t, into ``hits`` rows
     [point, depth, outward normal (world), arm from s's centre, arm from t's centre];
@@ -292,7 +292,7 @@ def _find_points_in_body(s, t, reach, bpos, bq, bound_r, point_start, points, ve
         if ex * ex + ey * ey + ez * ez <= reach2:
             scratch[0], scratch[1], scratch[2] = qrot_inv(tw, tx, ty, tz, ex, ey, ez)
             tri, _s, u, v, w, d = closest_triangle(t, scratch, scratch, reach, verts, tris,
-                                                   tnormal, grid_origin, grid_cell, grid_dims,
+                                                   tnormal, tedge, grid_origin, grid_cell, grid_dims,
                                                    grid_base, grid_start, grid_tris)
         if tri >= 0 and d > 0.0:
             va = verts[tris[tri, 0]]

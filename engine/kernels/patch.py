@@ -71,7 +71,7 @@ def patch_contacts(bd, pa, dt):
     step); ``dt = 0`` books nothing (the initial force evaluation)."""
     bpos, bq, bv, bw = bd.pos, bd.q, bd.v, bd.w
     bound_r = bd.bound_r
-    verts, tris, tnormal, pnormal = bd.verts, bd.tris, bd.tnormal, bd.pnormal
+    verts, tris, tnormal, tedge, pnormal = bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
     bf, btq = bd.f, bd.tq
@@ -111,7 +111,7 @@ def patch_contacts(bd, pa, dt):
                     continue
                 scratch[0], scratch[1], scratch[2] = qrot_inv(tw, tx, ty, tz, ex, ey, ez)
                 tri, _s, u, v, w, d = closest_triangle(t, scratch, scratch, reach, verts, tris,
-                                                       tnormal, grid_origin, grid_cell,
+                                                       tnormal, tedge, grid_origin, grid_cell,
                                                        grid_dims, grid_base, grid_start,
                                                        grid_tris)
                 if tri < 0 or d <= 0.0:

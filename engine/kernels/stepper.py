@@ -273,7 +273,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
                                       bd.collide, skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad,
                                       bn.i, bn.j,
                                       bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
-                                      bd.tris, bd.tnormal, bd.pnormal, bd.grid_origin,
+                                      bd.tris, bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
                                       bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
                                       bd.grid_tris, bd.scratch2)
         if m_new > bl.s2.shape[0]:

@@ -450,6 +450,34 @@ def _expand(i0, span, counts, dims):
     return (ci * dims[1] + cj) * dims[2] + ck
 
 
+def edge_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unit normals of each triangle's edges ab, bc, ca in the triangle's plane, pointing
+    away from the opposite vertex, shape (T, 3, 3). The triangle lies in each half-space
+    (y - e0) . m <= 0 (e0 the edge's first vertex), so a point farther than r beyond one of
+    them is farther than r from the triangle: the contact search's cheap rejection
+    (``engine.kernels.body_contacts.closest_triangle``). Degenerate faces get zeros (never
+    rejected)."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    out = np.zeros((len(t), 3, 3))
+    if len(t) == 0:
+        return out
+    p = v[t]                                   # (T, 3 corners, 3)
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    longest = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
+    # slivers (far wider margin than the contact geometry's own degenerate test): rounding
+    # could tilt their edge normals, so they are never rejected this way
+    sound = np.sum(n * n, axis=1) > 1e-12 * longest * longest
+    for e in range(3):
+        a, b, c = p[:, e], p[:, (e + 1) % 3], p[:, (e + 2) % 3]
+        m = np.cross(b - a, n)
+        m *= np.where(np.sum(m * (c - a), axis=1) > 0.0, -1.0, 1.0)[:, None]
+        lm = np.linalg.norm(m, axis=1)
+        good = sound & (lm > 0.0)
+        out[good, e] = m[good] / lm[good, None]
+    return out
+
+
 def pseudo_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Angle-weighted pseudo-normals (Baerentzen & Aanaes 2005) per triangle, shape (T, 7, 3):
     row 0 the face normal, rows 1-3 the normals of edges ab, bc, ca (the normalised sum of the
