@@ -26,7 +26,7 @@ from engine.assembly.bristles import BristlePart, BrushInfo, build_bristles, sta
 from engine.assembly.contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from engine.assembly.loads import build_loads, build_mission
 from engine.assembly.patches import build_patches, timestep_entries
-from engine.kernels.contact_law import NO_FRICTION, SLIP_EACH_STEP, restitution_damping_ratio
+from engine.kernels.contact_law import restitution_damping_ratio
 from engine.errors import SceneError
 from engine.model.layout import quat_to_matrix
 from engine.kernels.mesh_contact import initial_overlap
@@ -256,15 +256,15 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
                 needs: ContactNeeds, node_free: np.ndarray, loads: Loads) -> Flags:
     """The step loop's switches: which forces and checks a step computes."""
     rigid = bool(np.any(bodies.motion != FIXED))
-    fr = lambda needed: SLIP_EACH_STEP if needed else NO_FRICTION  # noqa: E731
     return Flags(bonds=bristles.bonds.i.shape[0] > 0,
                  bond_damping=bool(np.any(bristles.bonds.cn > 0)
                                    or np.any(bristles.bonds.cb > 0)),
                  bristle_bristle=needs.bristle_bristle, bristle_body=needs.bristle_body,
                  body_body=needs.body_body, mesh_mesh=needs.mesh_mesh,
-                 friction_bristle=fr(needs.friction_bristle),
-                 friction_body=fr(needs.friction_body),
-                 friction_body_body=fr(needs.friction_body_body),
+                 # plain ints in Flags (engine.state.SLIP_EACH_STEP and the like)
+                 friction_bristle=int(needs.friction_bristle),
+                 friction_body=int(needs.friction_body),
+                 friction_body_body=int(needs.friction_body_body),
                  rigid_bodies=rigid, mounted_roots=bool(np.any(bristles.roots.body >= 0)),
                  gravity=bool(np.any(tables.gravity != 0)) and (bool(node_free.any()) or rigid),
                  loads=len(scene.loads) > 0 and len(loads.node) > 0,
