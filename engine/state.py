@@ -113,7 +113,7 @@ LIMIT_LOCAL_DAMPING = 4  # Cundall's local damping coefficient alpha
 LIMITS_SIZE = 5
 
 # accumulators (float64 array ``acc``)
-ACC_HINGE_DISS = 0   # must stay 0: bodies_half_kick writes acc[0]
+ACC_HINGE_DISS = 0   # energy the hinges' dissipation removed (bodies_half_kick)
 ACC_DISSIPATED = 1
 ACC_WORK = 2
 ACC_E_BB = 3

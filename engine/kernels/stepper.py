@@ -420,13 +420,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                              dt)
         t_new = acc[ACC_TIME] + dt
         if fl.rigid_bodies:
-            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
-                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
-            bodies_drift(dt, t_new, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.Ip,
-                         bd.hinge_axis, bd.hinge_point, bd.after_free, bd.seg_start, bd.t0,
-                         bd.t1, bd.p0, bd.p1, bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor,
-                         orbit_n)
+            bodies_half_kick(bd, tb, acc, dt, orbit_n)
+            bodies_drift(bd, dt, t_new, orbit_n)
         if fl.mounted_roots:
             roots_follow(nd.x, nd.v, nd.q, nd.w, rt.node, rt.body, rt.local_pos, rt.local_q,
                          bd.pos, bd.q, bd.v, bd.w)
@@ -447,9 +442,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         # ---- second half kick
         nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
         if fl.rigid_bodies:
-            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
-                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
+            bodies_half_kick(bd, tb, acc, dt, orbit_n)
         acc[ACC_STEPS] += 1
         if timed:
             c9 = _clock()
