@@ -6,6 +6,7 @@ update the arrays in place). ``build`` creates them; nothing else allocates them
 from __future__ import annotations
 
 from collections import namedtuple
+from enum import IntEnum
 
 Nodes = namedtuple("Nodes", [
     "x", "v", "q", "w", "f", "t", "mass", "inv_mass", "inertia", "inv_inertia", "rad",
@@ -59,6 +60,45 @@ Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "
 Patches = namedtuple("Patches", ["body", "par", "state", "pair", "start", "pts", "w", "hits",
                                  "scratch"])
 
+class Friction(IntEnum):
+    """A contact kind's friction mode, ``Flags.friction_*`` (``engine.kernels.contact_law``
+    applies it), as ``ContactNeeds`` (``engine.assembly.contacts``) decides it."""
+
+    NONE = 0            # no tangential spring, no Coulomb cap
+    SLIP_EACH_STEP = 1  # Coulomb's cap is applied to the kept spring every step (the dynamics)
+    SLIP_FROZEN = 2     # the kept spring is the uncapped trial since the last commit: the force
+                        # applied is capped, the slip is committed only by a SLIP_EACH_STEP
+                        # step (quasi-static increments: engine.stepping.quasistatic)
+
+
+# the same values as plain ints, as the kernels and ``Flags`` hold them (numba would type an
+# IntEnum member as a type of its own and compile ``Flags`` anew)
+NO_FRICTION = int(Friction.NONE)
+SLIP_EACH_STEP = int(Friction.SLIP_EACH_STEP)
+SLIP_FROZEN = int(Friction.SLIP_FROZEN)
+
+
+def has_tangential_spring(friction_coefficient: float) -> bool:
+    """A contact keeps a tangential spring (stiffness ``tangential_ratio`` k_n, with its
+    history) only with friction, ``mu = tan(friction_angle) > 0`` (seed eq. 3.8: without
+    friction the spring's cap ``mu F_n`` is zero)."""
+    return friction_coefficient > 0.0
+
+
+def tangential_ratio(ratio: float, friction_coefficient: float) -> float:
+    """The tangential stiffness ratio a material pair acts with: ``ratio`` where it has a
+    tangential spring (:func:`has_tangential_spring`), else 0."""
+    return ratio if has_tangential_spring(friction_coefficient) else 0.0
+
+
+def friction_mode(friction_coefficients) -> Friction:
+    """The friction mode of a kind of contact, from the friction coefficients of the material
+    pairs it can meet: ``SLIP_EACH_STEP`` where one has a tangential spring, else ``NONE``."""
+    return (Friction.SLIP_EACH_STEP
+            if any(has_tangential_spring(mu) for mu in friction_coefficients)
+            else Friction.NONE)
+
+
 Flags = namedtuple("Flags", [
     "bonds", "bond_damping", "bristle_bristle", "bristle_body", "body_body", "mesh_mesh",
     "friction_bristle", "friction_body", "friction_body_body", "rigid_bodies",
@@ -74,7 +114,7 @@ LIMIT_LOCAL_DAMPING = 4  # Cundall's local damping coefficient alpha
 LIMITS_SIZE = 5
 
 # accumulators (float64 array ``acc``)
-ACC_HINGE_DISS = 0   # must stay 0: bodies_half_kick writes acc[0]
+ACC_HINGE_DISS = 0   # energy the hinges' dissipation removed (bodies_half_kick)
 ACC_DISSIPATED = 1
 ACC_WORK = 2
 ACC_E_BB = 3

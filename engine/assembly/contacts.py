@@ -19,6 +19,7 @@ from engine.kernels.contact_law import HISTORY_COLUMNS
 from engine.errors import SceneError
 from engine.kernels.mesh_contact import mesh_contact_stiffness, pair_stiffness
 from engine.assembly.timestep import BRISTLE_CONTACTS_PER_NODE
+from engine.state import Friction, friction_mode, tangential_ratio
 
 
 @dataclass
@@ -29,9 +30,9 @@ class ContactNeeds:
     bristle_body: bool
     body_body: bool
     mesh_mesh: bool
-    friction_bristle: bool
-    friction_body: bool
-    friction_body_body: bool
+    friction_bristle: Friction    # Friction.NONE or SLIP_EACH_STEP (engine.state.friction_mode)
+    friction_body: Friction
+    friction_body_body: Friction
     history_bristle: bool         # contact history kept: friction, damping (restitution < 1)
                                   # or adhesion
     history_body: bool
@@ -95,19 +96,21 @@ def contact_needs(scene, bristles, body_part, tables, warnings: list) -> Contact
     # damping or adhesion: either needs a history (the dashpot force, the adhered state)
     zeta = tables.zeta + tables.adhesion
     any_pair = lambda table, m1, m2: any(table[a, b] > 0 for a in m1 for b in m2)  # noqa: E731
-    friction_bristle = bb_needed and any_pair(mu, bristle_mats, bristle_mats)
-    friction_body = bbody_needed and any_pair(mu, bristle_mats, body_mats)
-    friction_body_body = bodybody_needed and any_pair(mu, body_mats, body_mats)
+    friction = lambda needed, m1, m2: (  # noqa: E731
+        friction_mode(mu[a, b] for a in m1 for b in m2) if needed else Friction.NONE)
+    friction_bristle = friction(bb_needed, bristle_mats, bristle_mats)
+    friction_body = friction(bbody_needed, bristle_mats, body_mats)
+    friction_body_body = friction(bodybody_needed, body_mats, body_mats)
     needs = ContactNeeds(
         bristle_bristle=bb_needed, bristle_body=bbody_needed, body_body=bodybody_needed,
         mesh_mesh=meshmesh_needed, friction_bristle=friction_bristle,
         friction_body=friction_body, friction_body_body=friction_body_body,
-        history_bristle=friction_bristle or (bb_needed
-                                             and any_pair(zeta, bristle_mats, bristle_mats)),
-        history_body=friction_body or (bbody_needed
-                                       and any_pair(zeta, bristle_mats, body_mats)),
-        history_body_body=friction_body_body or (bodybody_needed
-                                                 and any_pair(zeta, body_mats, body_mats)),
+        history_bristle=bool(friction_bristle) or (
+            bb_needed and any_pair(zeta, bristle_mats, bristle_mats)),
+        history_body=bool(friction_body) or (
+            bbody_needed and any_pair(zeta, bristle_mats, body_mats)),
+        history_body_body=bool(friction_body_body) or (
+            bodybody_needed and any_pair(zeta, body_mats, body_mats)),
         node_partners=node_partners, bristle_materials=bristle_mats, body_materials=body_mats,
         spheres=spheres)
     if needs.mesh_mesh and needs.history_body_body:  # per (contact point, other body)
@@ -147,10 +150,10 @@ def timestep_inputs(bristles, body_part, tables, needs: ContactNeeds) -> dict:
             bodies_info.append((body_names[k], float(bodies.mass[k]), float(bodies.Ip[k].min()),
                                 k_body, float(bodies.bound_r[k])))
     bristle_mats, body_mats = needs.bristle_materials, needs.body_materials
-    kt_bb = max([ktr[a, b] for a in bristle_mats for b in bristle_mats if mu[a, b] > 0],
-                default=0.0)
-    kt_body = max([ktr[a, b] for a in bristle_mats for b in body_mats if mu[a, b] > 0],
-                  default=0.0)
+    kt_bb = max([tangential_ratio(ktr[a, b], mu[a, b]) for a in bristle_mats
+                 for b in bristle_mats], default=0.0)
+    kt_body = max([tangential_ratio(ktr[a, b], mu[a, b]) for a in bristle_mats
+                   for b in body_mats], default=0.0)
     node_k_body = (_node_body_stiffness(bristles.brushes, bodies, nodes.x, rad, E_node,
                                         bristles.node_bristle, bristles.bristle_first, E_tab,
                                         after_free) if needs.bristle_body else np.zeros(N))

@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 from typing import Optional
 
 from engine.model.spec import Scene
+from engine.state import tangential_ratio
 
 # The peak memory of a process that builds and runs the scene: a fixed part and a part per
 # node. Measured (ru_maxrss, kernels loaded from the cache) on 100 x 100 x 8 box-pressed
@@ -123,13 +124,14 @@ def _bristle_omega2(scene: Scene, brush) -> float:
             body.motion, "after", None) != "free" else 2.0
         k_body = k_body + sides * 2.0 * Eb * E * r_node / (Eb + E)
         pair = scene.pair(brush.material, body.material)
-        if pair.friction_angle > 0:
-            kt_body = max(kt_body, pair.tangential_ratio)
+        kt_body = max(kt_body, tangential_ratio(pair.tangential_ratio,
+                                                math.tan(pair.friction_angle)))
     own = scene.pair(brush.material, brush.material)
     info = dict(node_mass=m, node_inertia=inertia, node_radius=r_node,
                 node_E=np.full(n, E), node_free=free,
                 node_bristle_contacts=np.full(n, float(partners)), node_k_body=k_body,
-                kt_ratio_bristle=own.tangential_ratio if own.friction_angle > 0 else 0.0,
+                kt_ratio_bristle=tangential_ratio(own.tangential_ratio,
+                                                  math.tan(own.friction_angle)),
                 kt_ratio_body=kt_body,
                 bond_arrays=(bi, bj, kn, ks, kb, ksb, kt, np.full(n - 1, seg)))
     if scene.environment.inertia_scaling == "equalize":

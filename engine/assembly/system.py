@@ -8,8 +8,8 @@ array indices back to brushes, bristles, nodes and bodies.
 :func:`build` reads as the data flow; each part has its builder: materials (here), bodies
 (``engine.assembly.bodies``), bristles, bonds and roots (``engine.assembly.bristles``, with the rest
 layout of ``engine.model.layout``), what can touch what (``engine.assembly.contacts``), node loads and
-the mission (``engine.assembly.loads``), the timestep (``engine.assembly.timestep.choose_dt``), and the
-flags, stages and neighbour lists (here).
+the mission (``engine.assembly.loads``), the timestep (``engine.assembly.timestep.choose_dt``), the
+flags and stages (here), and the neighbour lists (``engine.assembly.neighbours``).
 """
 from __future__ import annotations
 
@@ -19,15 +19,14 @@ from typing import Optional
 
 import numpy as np
 
-from engine.assembly import overlap
+from engine.assembly import neighbours, overlap
 from engine.kernels.bodies import FIXED
 from engine.assembly.bodies import BodyPart, build_bodies, start_on_profiles
 from engine.assembly.bristles import BristlePart, BrushInfo, build_bristles, start_with_mounts
 from engine.assembly.contacts import ContactNeeds, contact_needs, max_body_speed, timestep_inputs
 from engine.assembly.loads import build_loads, build_mission
 from engine.assembly.patches import build_patches, timestep_entries
-from engine.kernels.contact_law import (HISTORY_COLUMNS, NO_FRICTION, SLIP_EACH_STEP,
-                                  restitution_damping_ratio)
+from engine.kernels.contact_law import restitution_damping_ratio
 from engine.errors import SceneError
 from engine.model.layout import quat_to_matrix
 from engine.kernels.mesh_contact import initial_overlap
@@ -44,7 +43,6 @@ MAX_NODE_STEP_RATIO = 0.5    # node displacement per step / its radius
 # bristle radius
 CHECK_EVERY = 16
 TIME_EVERY = 64
-INITIAL_LIST_CAPACITY = 16   # neighbour list rows at first; grow_lists enlarges them
 
 
 @dataclass
@@ -143,7 +141,7 @@ def build(scene: Scene) -> System:
     flags = build_flags(scene, bristles, body_part.bodies, tables, needs, node_free, loads)
     flags = flags._replace(patches=bool(patch_info) and bool(patches.pair.any()))
     r_min = float(bristles.nodes.rad.min()) if bristles.nodes.rad.size else 0.0
-    skin = scene.run.verlet_skin if scene.run.verlet_skin is not None else (r_min or 1e-3)
+    skin = neighbours.list_skin(scene.run.verlet_skin, r_min)
     mission = build_mission(scene, orbit_n, body_part.names, body_part.shape_to_body)
     stages = assembled_stages(flags)
     # the step loop's limits (engine.state.LIMIT_*)
@@ -155,10 +153,10 @@ def build(scene: Scene) -> System:
     limits[LIMIT_LOCAL_DAMPING] = scene.environment.local_damping
     if needs.mesh_mesh:
         _check_mesh_overlap(body_part, warnings)
+    pairs, body_pairs = neighbours.allocate(needs.history_bristle, needs.history_body)
     system = System(scene=scene, nodes=bristles.nodes, bonds=bristles.bonds,
                     roots=bristles.roots, bodies=body_part.bodies,
-                    pairs=_pair_list(INITIAL_LIST_CAPACITY, needs.history_bristle),
-                    body_pairs=_body_list(INITIAL_LIST_CAPACITY, needs.history_body),
+                    pairs=pairs, body_pairs=body_pairs,
                     loads=loads, tables=tables,
                     flags=flags, acc=np.zeros(ACC_SIZE), err=np.zeros(4),
                     stage_time=np.zeros(len(STAGES)), limits=limits, dt=dt,
@@ -170,7 +168,7 @@ def build(scene: Scene) -> System:
                     body_frame_offset=body_part.shape_to_body, mission=mission,
                     patches=patches, patch_info=patch_info)
     if needs.bristle_bristle or needs.bristle_body:
-        initial_lists(system)
+        neighbours.fill(system)
     return system
 
 
@@ -258,15 +256,15 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
                 needs: ContactNeeds, node_free: np.ndarray, loads: Loads) -> Flags:
     """The step loop's switches: which forces and checks a step computes."""
     rigid = bool(np.any(bodies.motion != FIXED))
-    fr = lambda needed: SLIP_EACH_STEP if needed else NO_FRICTION  # noqa: E731
     return Flags(bonds=bristles.bonds.i.shape[0] > 0,
                  bond_damping=bool(np.any(bristles.bonds.cn > 0)
                                    or np.any(bristles.bonds.cb > 0)),
                  bristle_bristle=needs.bristle_bristle, bristle_body=needs.bristle_body,
                  body_body=needs.body_body, mesh_mesh=needs.mesh_mesh,
-                 friction_bristle=fr(needs.friction_bristle),
-                 friction_body=fr(needs.friction_body),
-                 friction_body_body=fr(needs.friction_body_body),
+                 # plain ints in Flags (engine.state.SLIP_EACH_STEP and the like)
+                 friction_bristle=int(needs.friction_bristle),
+                 friction_body=int(needs.friction_body),
+                 friction_body_body=int(needs.friction_body_body),
                  rigid_bodies=rigid, mounted_roots=bool(np.any(bristles.roots.body >= 0)),
                  gravity=bool(np.any(tables.gravity != 0)) and (bool(node_free.any()) or rigid),
                  loads=len(scene.loads) > 0 and len(loads.node) > 0,
@@ -279,78 +277,3 @@ def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tab
                  external_loads=any(any(b.external_force) or any(b.external_torque)
                                     for b in scene.bodies),
                  patches=False)  # set by build once the patches are built
-
-
-# ----------------------------------------------------------------------------- lists
-def _pair_list(cap: int, history: bool) -> PairList:
-    """Segment pairs (capacity ``cap``) with ``NSLOT`` contact slots each; contact history
-    (the kept tangential force, the energy released on letting go, the dashpot force:
-    ``contact_law.contact_with_history``) only where there is friction, damping or adhesion,
-    else no rows."""
-    from engine.kernels.contacts import NSLOT
-    c = cap * NSLOT
-    h = c if history else 0
-    return PairList(a=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
-                    ft=np.zeros((h, HISTORY_COLUMNS)),
-                    active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
-                    s=np.zeros(c), t=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
-                    ratio=np.zeros(c), n=np.zeros(2, np.int64), a2=np.zeros(cap, np.int64),
-                    b2=np.zeros(cap, np.int64), ft2=np.zeros((h, HISTORY_COLUMNS)),
-                    xf=np.zeros((c, 4, 3)))
-
-
-def _body_list(cap: int, history: bool) -> BodyList:
-    """(segment, body) candidates (capacity ``cap``) with ``BSLOT`` contact slots each;
-    history as in :func:`_pair_list`."""
-    from engine.kernels.body_contacts import BSLOT
-    c = cap * BSLOT
-    h = c if history else 0
-    return BodyList(s=np.zeros(cap, np.int64), b=np.zeros(cap, np.int64),
-                    ft=np.zeros((h, HISTORY_COLUMNS)),
-                    active=np.zeros(c, np.int8), fc=np.zeros((c, 3)), cp=np.zeros((c, 3)),
-                    par=np.zeros(c), energy=np.zeros(c), diss=np.zeros(c),
-                    ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
-                    s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
-                    ft2=np.zeros((h, HISTORY_COLUMNS)), xf=np.zeros((c, 4, 3)),
-                    deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
-
-
-def grow_lists(system: System, which: int, needed: int) -> None:
-    """Replace a neighbour list by a larger one, keeping its contents."""
-    cap = int(needed * 1.5) + 64
-    if which == 1:
-        old = system.pairs
-        new = _pair_list(cap, old.ft.shape[0] > 0)
-        n = int(old.n[0])
-        new.a[:n] = old.a[:n]
-        new.b[:n] = old.b[:n]
-        if old.ft.shape[0] > 0:
-            from engine.kernels.contacts import NSLOT
-            new.ft[:n * NSLOT] = old.ft[:n * NSLOT]
-        new.n[0] = n
-        system.pairs = new
-    else:
-        old = system.body_pairs
-        new = _body_list(cap, old.ft.shape[0] > 0)
-        n = int(old.n[0])
-        new.s[:n] = old.s[:n]
-        new.b[:n] = old.b[:n]
-        new.deep[:n] = old.deep[:n]
-        if old.ft.shape[0] > 0:
-            from engine.kernels.body_contacts import BSLOT
-            new.ft[:n * BSLOT] = old.ft[:n * BSLOT]
-        new.n[0] = n
-        system.body_pairs = new
-
-
-def initial_lists(system: System) -> None:
-    from engine.state import OK
-    from engine.kernels.stepper import rebuild_lists
-    while True:
-        code = rebuild_lists(system.nodes, system.bonds, system.bodies, system.pairs,
-                             system.body_pairs, system.flags, system.limits[LIMIT_SKIN])
-        if code == OK:
-            return
-        which = 1 if code == 1 else 2
-        needed = int((system.pairs if which == 1 else system.body_pairs).n[1])
-        grow_lists(system, which, needed)

@@ -21,6 +21,7 @@ from numba import njit
 from .orbit import cw_drift_body
 from .jit import item_kernel
 from .rotations import qexp, qmul, qnormalize, qrot, qrot_inv
+from ..state import ACC_HINGE_DISS
 
 FIXED = 0
 KINEMATIC = 1
@@ -154,12 +155,15 @@ def kinematic_state(k, time, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor
 
 
 @item_kernel
-def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
-                     hinge_axis, hinge_point, hinge_inertia, hinge_k1, hinge_k2, acc,
-                     orbit_n=0.0):
-    """Half a velocity kick of free and hinge bodies from the forces of the last evaluation.
-    ``acc[0]`` accumulates the energy the hinge dissipation removes. ``orbit_n``: the mean
-    motion of the Hill frame the scene lives in (0 = inertial; see engine.kernels.orbit)."""
+def bodies_half_kick(bd, tb, acc, dt, orbit_n):
+    """Half a velocity kick of free and hinge bodies (``bd``, ``engine.state.Bodies``) from
+    the forces of the last evaluation and gravity (``tb.gravity``). ``acc[ACC_HINGE_DISS]``
+    accumulates the energy the hinge dissipation removes. ``orbit_n``: the mean motion of the
+    Hill frame the scene lives in (0 = inertial; see engine.kernels.orbit)."""
+    motion, pos, q, v, w, L, mass, Ip = bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip
+    f, tq, gravity = bd.f, bd.tq, tb.gravity
+    hinge_axis, hinge_point, hinge_inertia = bd.hinge_axis, bd.hinge_point, bd.hinge_inertia
+    hinge_k1, hinge_k2 = bd.hinge_k1, bd.hinge_k2
     h = 0.5 * dt
     for k in range(motion.shape[0]):
         m = motion[k]
@@ -192,7 +196,7 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
                 om -= red
             else:
                 om += red
-            acc[0] += 0.5 * hinge_inertia[k] * (before * before - om * om)
+            acc[ACC_HINGE_DISS] += 0.5 * hinge_inertia[k] * (before * before - om * om)
             w[k, 0] = om * ax
             w[k, 1] = om * ay
             w[k, 2] = om * az
@@ -202,13 +206,16 @@ def bodies_half_kick(dt, motion, pos, q, v, w, L, mass, Ip, f, tq, gravity,
 
 
 @item_kernel
-def bodies_drift(dt, time_new, motion, pos, q, v, w, L, Ip, hinge_axis, hinge_point,
-                 after_free, seg_start, t0, t1, p0, p1, v0, v1, wseg, q0, cursor, orbit_n=0.0):
-    """Advance body poses by dt (positions of free/hinge bodies; kinematic bodies are set to
-    their profile at ``time_new``; a kinematic body whose profile ended and whose ``after``
-    is free becomes a free body). With ``orbit_n`` != 0 a free body's centre follows the
-    exact Clohessy-Wiltshire flow and its momentum and orientation turn with the Hill frame
-    (engine.kernels.orbit)."""
+def bodies_drift(bd, dt, time_new, orbit_n):
+    """Advance the poses of the bodies ``bd`` (``engine.state.Bodies``) by dt (positions of
+    free/hinge bodies; kinematic bodies are set to their profile at ``time_new``; a kinematic
+    body whose profile ended and whose ``after`` is free becomes a free body). With
+    ``orbit_n`` != 0 a free body's centre follows the exact Clohessy-Wiltshire flow and its
+    momentum and orientation turn with the Hill frame (engine.kernels.orbit)."""
+    motion, pos, q, v, w, L, Ip = bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.Ip
+    hinge_axis, hinge_point, after_free = bd.hinge_axis, bd.hinge_point, bd.after_free
+    seg_start, t0, t1, p0, p1 = bd.seg_start, bd.t0, bd.t1, bd.p0, bd.p1
+    v0, v1, wseg, q0, cursor = bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor
     for k in range(motion.shape[0]):
         m = motion[k]
         if m == FREE:

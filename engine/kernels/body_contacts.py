@@ -38,7 +38,7 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
     ``out_deep`` gets, per candidate against a watertight mesh, bit 0 (the segment's start
     node) and bit 1 (its end node) set where that node may lie deeper inside the body than its
     radius before the next rebuild: it is inside now, or half the skin (the most a node and a
-    body move relative to each other between rebuilds, ``stepper.predicted_displacement``)
+    body move relative to each other between rebuilds, ``neighbours.predicted_displacement``)
     reaches its radius. A node outside now is then at most half the skin inside, within its
     radius of a face, where the narrow phase finds it without the deep search."""
     ns = mid.shape[0]

@@ -15,12 +15,8 @@ import math
 
 from numba import njit
 
-# values of a contact's ``friction`` switch
-NO_FRICTION = 0
-SLIP_EACH_STEP = 1   # Coulomb's cap is applied to the kept spring every step (the dynamics)
-SLIP_FROZEN = 2      # the kept spring is the uncapped trial since the last commit: the force
-                     # applied is capped, the slip is committed only by a SLIP_EACH_STEP step
-                     # (quasi-static increments: engine.stepping.quasistatic)
+# values of a contact's ``friction`` switch: engine.state.Friction, as plain ints
+from ..state import NO_FRICTION, SLIP_EACH_STEP, SLIP_FROZEN  # noqa: F401
 
 
 def clipped_restitution(zeta: float) -> float:

@@ -7,10 +7,9 @@ joint is counted by the segment after the joint, and only if the segment before 
 come closer; so a touch at a joint is counted once, and contacts hand over continuously from
 segment to segment (which keeps the energy of undamped, frictionless contacts constant).
 
-The neighbour list keeps every segment pair whose bounding spheres are closer than the skin.
-It is rebuilt (by the step loop) when some node has moved more than half the skin since the
-last build; pairs that survive a rebuild keep their tangential history. Its capacity is fixed;
-an overflow is reported to the caller, which grows the arrays and steps again.
+The neighbour list keeps every segment pair whose bounding spheres are closer than the skin
+(:func:`build_pair_list`, the broad phase); when it is rebuilt, how the surviving pairs keep
+their history and what happens on an overflow is ``engine.kernels.neighbours``.
 """
 from __future__ import annotations
 
@@ -138,23 +137,6 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
         out_a[k] = key // ns
         out_b[k] = key % ns
     return n
-
-
-@njit(cache=True)
-def carry_history(old_a, old_b, old_ft, n_old, new_a, new_b, new_ft, n_new, ns, nslot):
-    """Copy the tangential history (``nslot`` rows per entry) of the entries present in both
-    lists, sorted by the key ``a * ns + b`` (merge join); a new entry starts at zero. For the
-    segment pairs (``nslot`` = NSLOT, ``ns`` segments) and the segment-body candidates
-    (BSLOT, ``ns`` bodies)."""
-    i = 0
-    for k in range(n_new):
-        key = new_a[k] * ns + new_b[k]
-        while i < n_old and old_a[i] * ns + old_b[i] < key:
-            i += 1
-        found = i < n_old and old_a[i] * ns + old_b[i] == key
-        for m in range(nslot):
-            for c in range(new_ft.shape[1]):
-                new_ft[k * nslot + m, c] = old_ft[i * nslot + m, c] if found else 0.0
 
 
 NSLOT = 5  # contacts a segment pair can hold: 4 node-segment + 1 crossing

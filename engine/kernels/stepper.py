@@ -22,15 +22,14 @@ from numba import njit, objmode, prange
 
 from .bodies import KINEMATIC, bodies_drift, bodies_half_kick
 from .control import apply_controllers, apply_external
-from .body_contacts import (BSLOT, body_body_contacts, bristle_body_narrow, build_body_candidates,
-                            scatter_bristle_body)
+from .body_contacts import body_body_contacts, bristle_body_narrow, scatter_bristle_body
 from .bonds import PARALLEL_MIN, bond_node_forces
 from .mesh_contact import mesh_mesh_contacts
 from .patch import patch_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
-from .contacts import (NSLOT, bristle_bristle_narrow, build_pair_list, carry_history,
-                       scatter_bristle_bristle, segment_bounds)
+from .contacts import bristle_bristle_narrow, scatter_bristle_bristle
 from .jit import item_kernel
+from .neighbours import lists_stale, rebuild_lists
 from .rotations import qexp, qmul, qnormalize, qrot
 from ..state import (LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING, LIMIT_NODE_STEP, LIMIT_OVERLAP,
                      LIMIT_SKIN)
@@ -38,9 +37,9 @@ from ..state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_M
                      ACC_N_BB, ACC_N_BODY, ACC_N_BODYBODY, ACC_REBUILDS, ACC_STEPS, ACC_TIME,
                      ACC_TIMED_STEPS, ACC_WORK, FAIL_BODY_SPEED, FAIL_NODE_SPEED,
                      FAIL_NONFINITE_BODY, FAIL_NONFINITE_NODE, FAIL_OVERLAP_BB, FAIL_OVERLAP_BODY,
-                     FAIL_OVERLAP_BODYBODY, OK, OVERFLOW_BODY, OVERFLOW_PAIRS, SLOT_BODY_BODY,
-                     SLOT_BONDS, SLOT_BRISTLE_BODY, SLOT_BRISTLE_BRISTLE, SLOT_CHECKS,
-                     SLOT_EXTERNAL, SLOT_INTEGRATE, SLOT_NEIGHBOUR_LIST)
+                     FAIL_OVERLAP_BODYBODY, OK, SLOT_BODY_BODY, SLOT_BONDS, SLOT_BRISTLE_BODY,
+                     SLOT_BRISTLE_BRISTLE, SLOT_CHECKS, SLOT_EXTERNAL, SLOT_INTEGRATE,
+                     SLOT_NEIGHBOUR_LIST)
 
 
 @njit(cache=True)
@@ -215,91 +214,6 @@ def local_damping(f, t, v, w, inv_mass, alpha, dt):
             t[n, a] = ta - sw * alpha * abs(ta)
             diss += free * alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
     return diss
-
-
-@item_kernel
-def predicted_displacement(nd, bd, dt):
-    """Upper bound of how far any node and any body centre will be from where the
-    neighbour lists were built, after the next drift."""
-    worst = 0.0
-    for n in range(nd.x.shape[0]):
-        dx = nd.x[n, 0] - nd.x_build[n, 0]
-        dy = nd.x[n, 1] - nd.x_build[n, 1]
-        dz = nd.x[n, 2] - nd.x_build[n, 2]
-        im = nd.inv_mass[n]
-        vx = nd.v[n, 0] + 0.5 * dt * nd.f[n, 0] * im
-        vy = nd.v[n, 1] + 0.5 * dt * nd.f[n, 1] * im
-        vz = nd.v[n, 2] + 0.5 * dt * nd.f[n, 2] * im
-        a = dx * dx + dy * dy + dz * dz
-        c = dt * dt * (vx * vx + vy * vy + vz * vz)
-        # (sqrt(a) + sqrt(c))^2 <= 2 (a + c): most nodes are ruled out without a sqrt
-        if 2.0 * (a + c) > worst * worst:
-            d = math.sqrt(a) + dt * math.sqrt(vx * vx + vy * vy + vz * vz)
-            if d > worst:
-                worst = d
-    wb = 0.0
-    for k in range(bd.pos.shape[0]):
-        if not bd.collide[k]:
-            continue
-        dx = bd.pos[k, 0] - bd.pos_build[k, 0]
-        dy = bd.pos[k, 1] - bd.pos_build[k, 1]
-        dz = bd.pos[k, 2] - bd.pos_build[k, 2]
-        sp = math.sqrt(bd.v[k, 0] ** 2 + bd.v[k, 1] ** 2 + bd.v[k, 2] ** 2)
-        om = math.sqrt(bd.w[k, 0] ** 2 + bd.w[k, 1] ** 2 + bd.w[k, 2] ** 2)
-        # rotation since the build: angle of q q_build^*, times the body's reach
-        cw = abs(bd.q[k, 0] * bd.q_build[k, 0] + bd.q[k, 1] * bd.q_build[k, 1]
-                 + bd.q[k, 2] * bd.q_build[k, 2] + bd.q[k, 3] * bd.q_build[k, 3])
-        ang = 2.0 * math.acos(min(cw, 1.0))
-        d = (math.sqrt(dx * dx + dy * dy + dz * dz) + ang * bd.bound_r[k]
-             + 2.0 * dt * (sp + om * bd.bound_r[k]))
-        if d > wb:
-            wb = d
-    return worst + wb
-
-
-@njit(cache=True)
-def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
-    """Rebuild the neighbour lists from the current positions, keeping contact history.
-    Returns OK or an overflow code (then nothing was changed)."""
-    segment_bounds(nd.x, nd.rad, bn.i, bn.j, bn.mid, bn.bound)
-    if fl.bristle_bristle:
-        n_new = build_pair_list(bn.mid, bn.bound, bn.bristle, skin, pl.a2, pl.b2, nd.x, bn.i,
-                                bn.j, bn.rmax)
-        if n_new > pl.a2.shape[0]:
-            pl.n[1] = n_new
-            return OVERFLOW_PAIRS
-    if fl.bristle_body:
-        m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
-                                      bd.collide, skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad,
-                                      bn.i, bn.j,
-                                      bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
-                                      bd.tris, bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
-                                      bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
-                                      bd.grid_tris, bd.scratch2)
-        if m_new > bl.s2.shape[0]:
-            bl.n[1] = m_new
-            return OVERFLOW_BODY
-    if fl.bristle_bristle:
-        if pl.ft.shape[0] > 0:  # a history (friction or damping)
-            carry_history(pl.a, pl.b, pl.ft, pl.n[0], pl.a2, pl.b2, pl.ft2, n_new,
-                          bn.i.shape[0], NSLOT)
-            pl.ft[:n_new * NSLOT] = pl.ft2[:n_new * NSLOT]
-        pl.a[:n_new] = pl.a2[:n_new]
-        pl.b[:n_new] = pl.b2[:n_new]
-        pl.n[0] = n_new
-    if fl.bristle_body:
-        if bl.ft.shape[0] > 0:
-            carry_history(bl.s, bl.b, bl.ft, bl.n[0], bl.s2, bl.b2, bl.ft2, m_new,
-                          bd.pos.shape[0], BSLOT)
-            bl.ft[:m_new * BSLOT] = bl.ft2[:m_new * BSLOT]
-        bl.s[:m_new] = bl.s2[:m_new]
-        bl.b[:m_new] = bl.b2[:m_new]
-        bl.deep[:m_new] = bl.deep2[:m_new]
-        bl.n[0] = m_new
-    nd.x_build[:] = nd.x
-    bd.pos_build[:] = bd.pos
-    bd.q_build[:] = bd.q
-    return OK
 
 
 @item_kernel
@@ -489,7 +403,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             c0 = _clock()
         # ---- neighbour lists valid for the coming drift?
         if fl.bristle_bristle or fl.bristle_body:
-            if predicted_displacement(nd, bd, dt) > 0.5 * skin:
+            if lists_stale(nd, bd, dt, skin):
                 code = rebuild_lists(nd, bn, bd, pl, bl, fl, skin)
                 if code != OK:
                     return code, it
@@ -506,13 +420,8 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
                              dt)
         t_new = acc[ACC_TIME] + dt
         if fl.rigid_bodies:
-            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
-                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
-            bodies_drift(dt, t_new, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.Ip,
-                         bd.hinge_axis, bd.hinge_point, bd.after_free, bd.seg_start, bd.t0,
-                         bd.t1, bd.p0, bd.p1, bd.v0, bd.v1, bd.wseg, bd.q0, bd.cursor,
-                         orbit_n)
+            bodies_half_kick(bd, tb, acc, dt, orbit_n)
+            bodies_drift(bd, dt, t_new, orbit_n)
         if fl.mounted_roots:
             roots_follow(nd.x, nd.v, nd.q, nd.w, rt.node, rt.body, rt.local_pos, rt.local_q,
                          bd.pos, bd.q, bd.v, bd.w)
@@ -533,9 +442,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         # ---- second half kick
         nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
         if fl.rigid_bodies:
-            bodies_half_kick(dt, bd.motion, bd.pos, bd.q, bd.v, bd.w, bd.L, bd.mass, bd.Ip,
-                             bd.f, bd.tq, tb.gravity, bd.hinge_axis, bd.hinge_point,
-                             bd.hinge_inertia, bd.hinge_k1, bd.hinge_k2, acc, orbit_n)
+            bodies_half_kick(bd, tb, acc, dt, orbit_n)
         acc[ACC_STEPS] += 1
         if timed:
             c9 = _clock()

@@ -15,7 +15,8 @@ from typing import Callable, Optional, Union
 
 import numpy as np
 
-from engine.assembly.system import System, grow_lists
+from engine.assembly.neighbours import grow_on_overflow
+from engine.assembly.system import System
 from engine.stepping.channels import run_channels, run_frame
 from engine.stepping.compile_clock import CompileClock
 from engine.stepping.diagnosis import dt_cause, instability
@@ -24,8 +25,7 @@ from engine.stepping.observables import energies
 from engine.io.output_paths import check_output_file
 from engine.stepping.observe import observer_calls
 from engine.io.recorder import Recorder
-from engine.state import (ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, OVERFLOW_BODY,
-                    OVERFLOW_PAIRS, STAGES, timed_slots)
+from engine.state import ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, STAGES, timed_slots
 from engine.kernels.stepper import advance
 
 ENERGY_BALANCE_LIMIT = 1.0  # |drift of (total + dissipated - work)| / largest energy seen
@@ -252,9 +252,7 @@ def _advance(system: System, n: int) -> int:
                         system.body_pairs, system.loads, system.tables, system.flags,
                         system.acc, system.err, system.stage_time, system.dt, n,
                         system.limits, system.mission, system.patches)
-    if code in (OVERFLOW_PAIRS, OVERFLOW_BODY):
-        lst = system.pairs if code == OVERFLOW_PAIRS else system.body_pairs
-        grow_lists(system, code, int(lst.n[1]))
+    if grow_on_overflow(system, code):
         return did
     if code != OK:
         raise instability(system, code)

@@ -28,7 +28,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from engine.analysis.beam_theory import circle_second_moment, rod_frequency
-from engine.kernels.contact_law import SLIP_EACH_STEP, SLIP_FROZEN
+from engine.state import SLIP_EACH_STEP, SLIP_FROZEN
 from engine.stepping.loop import run_steps
 
 
@@ -134,7 +134,7 @@ def settle(system, *, force_tolerance: float | Callable[[object], float],
 
 def freeze_slip(system, frozen: bool = True) -> None:
     """Within a quasi-static increment, keep the bristle contacts' tangential springs as
-    uncapped trials (``contact_law.SLIP_FROZEN``): the friction force then depends on the net
+    uncapped trials (``engine.state.Friction.SLIP_FROZEN``): the friction force then depends on the net
     tangential displacement since the last :func:`commit_slip`, not on how the relaxation
     moved back and forth, so the equilibrium reached does not depend on the loading rate,
     the damping or the inertia, only on the size of the increment (a return mapping per

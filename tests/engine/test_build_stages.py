@@ -178,3 +178,26 @@ def test_mesh_mesh_stage_only_for_mesh_pairs():
     s = engine.build(scene(**d))
     assert "body_body_contacts" in s.stages and "mesh_mesh_contacts" not in s.stages
     assert s.flags.body_body and not s.flags.mesh_mesh
+
+
+def test_a_tangential_spring_only_where_a_pair_has_friction():
+    # silicone-silicone with friction; silicone-pla with a tangential ratio but no friction:
+    # a mode taken from the tangential ratio, or from any pair, would give the body contacts
+    # a slip mode and a history (engine.state.friction_mode, the rule's one home)
+    from engine.state import Friction, tangential_ratio
+
+    s = engine.build(scene(
+        brushes=[{"name": "b", "material": "silicone", "rows": 2, "columns": 2,
+                  "pitch": [0.003, 0.003], "bristle_length": 0.02, "root_radius": 0.001,
+                  "tip_radius": 0.0008, "n_nodes": 4}],
+        contact_pairs=[{"materials": ["silicone", "silicone"], "friction_angle": 0.5},
+                       {"materials": ["silicone", "pla"], "friction_angle": 0.0,
+                        "tangential_ratio": 0.9}],
+        bodies=[{"name": "box", "material": "pla",
+                 "shape": {"type": "box", "size": [0.01, 0.01, 0.01]},
+                 "pose": {"position": [0, 0, 0.03]}}]))
+    assert s.flags.bristle_bristle and s.flags.bristle_body
+    assert s.flags.friction_bristle == Friction.SLIP_EACH_STEP
+    assert s.flags.friction_body == Friction.NONE and s.body_pairs.ft.shape[0] == 0
+    assert type(s.flags.friction_body) is int  # numba would compile an IntEnum Flags anew
+    assert tangential_ratio(0.9, 0.0) == 0.0 and tangential_ratio(0.9, 0.1) == 0.9

@@ -10,7 +10,7 @@ import inspect
 
 import pytest
 
-from engine.kernels import bodies, body_contacts, contacts, mesh_contact, stepper
+from engine.kernels import bodies, body_contacts, contacts, mesh_contact, neighbours, stepper
 
 PER_ITEM = {
     contacts: ("_pair_contacts", "point_segment_max_overlap", "best_of_neighbours",
@@ -19,7 +19,8 @@ PER_ITEM = {
                     "deep_closest", "feature_normal", "_point_fade_forces",
                     "_mesh_fade_forces", "_edge_fade_forces", "_holds_edge",
                     "edge_face_fade"),
-    stepper: ("predicted_displacement", "check_state", "local_damping", "add_gravity",
+    neighbours: ("predicted_displacement", "lists_stale"),
+    stepper: ("check_state", "local_damping", "add_gravity",
               "add_loads", "roots_follow", "roots_to_bodies"),
     bodies: ("bodies_half_kick", "bodies_drift", "kinematic_state"),
     mesh_contact: ("_find_points_in_body", "_apply_hits"),
@@ -39,8 +40,10 @@ def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():
     """A new per-item kernel in the contact modules is either listed above (and so checked)
     or compiled with reference counting because it allocates or runs once per step."""
     allowed_with_nrt = {
-        contacts: {"segment_bounds", "build_pair_list", "carry_history",
-                   "bristle_bristle_narrow", "scatter_bristle_bristle"},
+        contacts: {"segment_bounds", "build_pair_list", "bristle_bristle_narrow",
+                   "scatter_bristle_bristle"},
+        # once per rebuild: copies slices of the lists
+        neighbours: {"rebuild_lists", "carry_history"},
         body_contacts: {"build_body_candidates", "bristle_body_narrow",
                         "scatter_bristle_body", "body_body_contacts"},
         # once per step (allocates each pair's hit buffers), and the build-time check
