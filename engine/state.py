@@ -25,7 +25,7 @@ Bodies = namedtuple("Bodies", [
     "seg_start", "t0", "t1", "p0", "p1", "v0", "v1", "wseg", "q0", "cursor",
     "sphere_r", "bound_r", "watertight", "material", "collide", "pos_build", "q_build", "pos0",
     "verts", "tris", "tnormal", "tedge", "pnormal", "grid_origin", "grid_cell", "grid_dims", "grid_base",
-    "grid_start",
+    "grid_start", "grid_side",
     "grid_tris", "ft_bb", "scratch", "scratch2",
     # mesh-mesh contacts (engine.kernels.mesh_contact): first contact point of each body (K + 1),
     # the points (body frames), per-pair point stiffness (K, K; 0 = the pair does not touch)

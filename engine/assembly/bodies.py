@@ -19,6 +19,7 @@ from engine.kernels.contact_law import HISTORY_COLUMNS
 from engine.errors import SceneError
 from engine.model.layout import quat_conj, quat_mul, quat_to_matrix
 from engine.kernels.mesh_contact import contact_points, point_contact_length
+from engine.kernels.body_contacts import CELL_INSIDE, CELL_OUTSIDE, deep_closest
 from engine.kernels.rotations import matrix_to_quat, qlog
 from engine.model.spec import Scene
 from engine.state import Bodies
@@ -185,8 +186,45 @@ class _Surfaces:
                     grid_dims=self.grid_dims, grid_base=self.grid_base,
                     grid_start=np.ascontiguousarray(g_start, np.int64),
                     grid_tris=np.ascontiguousarray(g_tris, np.int64),
+                    grid_side=np.zeros(max(self.c_off, 1), np.int8),
                     point_start=self.point_start,
                     points=np.concatenate(self.points) if K else np.zeros((1, 3)))
+
+
+def classify_empty_cells(bd: Bodies) -> None:
+    """Fill ``bd.grid_side`` for each watertight mesh body: every grid cell that no triangle's
+    box overlaps is marked inside or outside the body. The surface passes through none of
+    those cells nor through a face two of them share (a triangle touching a cell face is
+    listed in the cell above it), so each face-connected region of empty cells lies wholly
+    on one side, which one exact test at one cell's centre (``deep_closest``) decides. The
+    contact search then knows a point in an empty outside cell is outside without looking
+    for its closest triangle (``engine.kernels.body_contacts.deep_closest``)."""
+    from scipy import ndimage
+
+    for k in range(len(bd.pos)):
+        if not bd.watertight[k] or bd.sphere_r[k] > 0.0:
+            continue
+        dims = tuple(int(d) for d in bd.grid_dims[k])
+        n = int(np.prod(dims))
+        base = int(bd.grid_base[k])
+        empty = (np.diff(bd.grid_start[base:base + n + 1]) == 0).reshape(dims)
+        if not empty.any():
+            continue
+        labels, n_regions = ndimage.label(empty)  # face connectivity (the default in 3D)
+        flat = labels.ravel()
+        regions, first = np.unique(flat, return_index=True)
+        side = np.zeros(n_regions + 1, np.int8)
+        for region, cell_id in zip(regions, first):
+            if region == 0:
+                continue
+            centre = bd.grid_origin[k] + (np.array(np.unravel_index(cell_id, dims)) + 0.5) \
+                * bd.grid_cell[k]
+            tri = deep_closest(k, centre, 0.5 * bd.grid_cell[k], bd.verts, bd.tris, bd.tnormal,
+                               bd.tedge, bd.pnormal, bd.grid_origin, bd.grid_cell,
+                               bd.grid_dims, bd.grid_base, bd.grid_start, bd.grid_tris,
+                               bd.grid_side)[0]
+            side[region] = CELL_INSIDE if tri >= 0 else CELL_OUTSIDE
+        bd.grid_side[base:base + n] = side[flat]
 
 
 def _set_motion(k: int, body, a: dict, vals: np.ndarray, geo, q_p: np.ndarray, orbit_n: float,
@@ -296,6 +334,7 @@ def build_bodies(scene: Scene, mat_index: dict, orbit_n: float, warnings: list) 
         mesh_kn=np.zeros((K, K)), mesh_len=np.zeros((K, K)),
         ft_mesh=np.zeros((0, K, HISTORY_COLUMNS)),  # rows only with history (build_contacts)
         f_contact=np.zeros((K, 3)), tq_contact=np.zeros((K, 3)))
+    classify_empty_cells(bodies)
     return BodyPart(bodies=bodies, names=[b.name for b in scene.bodies], geometry=geoms,
                     shape_to_body=shape_to_body, point_len=surfaces.point_len)
 

@@ -28,7 +28,7 @@ from .rotations import qrot, qrot_inv
 def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
                           out_deep, x, rad, bi, bj, seg_rmax, q, sphere_r, watertight, verts,
                           tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                          grid_base, grid_start, grid_tris, local):
+                          grid_base, grid_start, grid_tris, grid_side, local):
     """(segment, body) pairs whose capsule and body surface are closer than ``skin``, or
     whose segment lies inside a closed body (a sphere, or a watertight mesh: then it may be
     farther than the skin from every face), sorted by (segment, body); the bounding spheres
@@ -81,7 +81,7 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                     # ends are on the same side; one deep inside a closed body stays listed
                     near = deep_closest(k, l0, reach, verts, tris, tnormal, tedge, pnormal,
                                         grid_origin, grid_cell, grid_dims, grid_base,
-                                        grid_start, grid_tris)[0] >= 0
+                                        grid_start, grid_tris, grid_side)[0] >= 0
             if near:
                 if n < cap:
                     out_s[n] = s
@@ -90,11 +90,13 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                     if sphere_r[k] <= 0.0 and watertight[k]:
                         if 0.5 * skin >= rad[i0] or deep_closest(
                                 k, l0, rad[i0], verts, tris, tnormal, tedge, pnormal, grid_origin,
-                                grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
+                                grid_cell, grid_dims, grid_base, grid_start, grid_tris,
+                                grid_side)[0] >= 0:
                             flags |= 1
                         if 0.5 * skin >= rad[i1] or deep_closest(
                                 k, l1, rad[i1], verts, tris, tnormal, tedge, pnormal, grid_origin,
-                                grid_cell, grid_dims, grid_base, grid_start, grid_tris)[0] >= 0:
+                                grid_cell, grid_dims, grid_base, grid_start, grid_tris,
+                                grid_side)[0] >= 0:
                             flags |= 2
                     out_deep[n] = flags
                 n += 1
@@ -212,18 +214,28 @@ def nearest_triangle(k, p, r0, verts, tris, tnormal, tedge, grid_origin, grid_ce
 
 @item_kernel
 def deep_closest(k, p, r0, verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                 grid_base, grid_start, grid_tris):
+                 grid_base, grid_start, grid_tris, grid_side):
     """For a point p (body frame) of a closed (watertight) mesh body k: its closest triangle
     (tri, u, v, w, dist) if p lies inside the body, else tri = -1. Outside the grid's box
     (which holds every triangle) is outside without a search; inside it, the closest
     triangle at any distance (``nearest_triangle`` from half-size ``r0``) and the sign of
     (p - closest point) along the feature's angle-weighted pseudo-normal decide, as in the
-    narrow phase. Only meaningful for watertight meshes."""
+    narrow phase. Only meaningful for watertight meshes. A point in a grid cell that no
+    triangle's box overlaps takes that cell's side from ``grid_side`` (``CELL_OUTSIDE``:
+    outside without a search; the surface does not pass through such a cell, see
+    ``engine.assembly.bodies.classify_empty_cells``)."""
     lo = grid_origin[k]
     cell = grid_cell[k]
     for a in range(3):
         if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
             return -1, 0.0, 0.0, 0.0, 0.0
+    d1 = grid_dims[k, 1]
+    d2 = grid_dims[k, 2]
+    c0 = min(int(math.floor((p[0] - lo[0]) / cell)), grid_dims[k, 0] - 1)
+    c1 = min(int(math.floor((p[1] - lo[1]) / cell)), d1 - 1)
+    c2 = min(int(math.floor((p[2] - lo[2]) / cell)), d2 - 1)
+    if grid_side[grid_base[k] + (c0 * d1 + c1) * d2 + c2] == CELL_OUTSIDE:
+        return -1, 0.0, 0.0, 0.0, 0.0
     tri, u, v, w, d = nearest_triangle(k, p, r0, verts, tris, tnormal, tedge, grid_origin, grid_cell,
                                        grid_dims, grid_base, grid_start, grid_tris)
     if tri < 0:
@@ -271,6 +283,9 @@ def feature_normal(tri, u, v, w, pnormal):
     return pnormal[tri, f, 0], pnormal[tri, f, 1], pnormal[tri, f, 2]
 
 
+CELL_UNKNOWN = 0   # grid_side: a cell some triangle's box overlaps (or a mesh never asked)
+CELL_OUTSIDE = 1   # an empty cell outside the closed body
+CELL_INSIDE = 2    # an empty cell inside it
 BSLOT = 3          # contacts a (segment, body) candidate holds: two nodes + one interior
 BODY_CROSS_END = 0.25
 
@@ -292,6 +307,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     verts, tris, tnormal, tedge, pnormal = bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal
     grid_origin, grid_cell, grid_dims = bd.grid_origin, bd.grid_cell, bd.grid_dims
     grid_base, grid_start, grid_tris = bd.grid_base, bd.grid_start, bd.grid_tris
+    grid_side = bd.grid_side
     E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     active, fc, cp, par_s = bl.active, bl.fc, bl.cp, bl.par
     energy, diss, overlap_ratio, xf = bl.energy, bl.diss, bl.ratio, bl.xf
@@ -301,7 +317,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
                                     cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                                    grid_base, grid_start, grid_tris, E, mu_table, kt_table,
+                                    grid_base, grid_start, grid_tris, grid_side, E, mu_table, kt_table,
                                     zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
@@ -311,7 +327,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
                                     cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
                                     motion, sphere_r, watertight, body_material, verts, tris,
                                     tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                                    grid_base, grid_start, grid_tris, E, mu_table, kt_table,
+                                    grid_base, grid_start, grid_tris, grid_side, E, mu_table, kt_table,
                                     zeta_table, adh_table,
                                     active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
                                     dt)
@@ -322,7 +338,8 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                             cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
                             sphere_r, watertight, body_material, verts, tris, tnormal, tedge, pnormal,
                             grid_origin, grid_cell, grid_dims, grid_base, grid_start,
-                            grid_tris, E, mu_table, kt_table, zeta_table, adh_table, active,
+                            grid_tris, grid_side, E, mu_table, kt_table, zeta_table, adh_table,
+                            active,
                             fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
     sg = cs[c]
     k = cb[c]
@@ -401,7 +418,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                     tri, u, vv, ww, d = deep_closest(k, pe, 2.0 * re, verts, tris, tnormal, tedge,
                                                      pnormal, grid_origin, grid_cell,
                                                      grid_dims, grid_base, grid_start,
-                                                     grid_tris)
+                                                     grid_tris, grid_side)
                 s = float(slot_k)
             else:
                 rmax = max(rad[i0], rad[i1])

@@ -39,6 +39,24 @@ def segment_bounds(x, rad, bi, bj, mid, bound):
         bound[s] = 0.5 * math.sqrt(lx * lx + ly * ly + lz * lz) + max(rad[i], rad[j])
 
 
+@njit(cache=True, inline="always")
+def _box_gap2(x, ia, ja, ib, jb):
+    """Squared distance between the axis-aligned boxes of segments ia-ja and ib-jb: a lower
+    bound of the squared distance between the segments (their closest points lie in the
+    boxes). Side by side bristles are rejected by it without the segment-segment distance,
+    which their bounding spheres (as long as the segments) let through."""
+    g2 = 0.0
+    for c in range(3):
+        a0 = min(x[ia, c], x[ja, c])
+        a1 = max(x[ia, c], x[ja, c])
+        b0 = min(x[ib, c], x[jb, c])
+        b1 = max(x[ib, c], x[jb, c])
+        gap = max(b0 - a1, a0 - b1)
+        if gap > 0.0:
+            g2 += gap * gap
+    return g2
+
+
 @njit(cache=True)
 def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_rmax):
     """All pairs (a < b) of segments of different bristles whose capsules (axis distance
@@ -117,6 +135,9 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
                         ja = bj[a]
                         ib = bi[b]
                         jb = bj[b]
+                        lim = seg_rmax[a] + seg_rmax[b] + skin
+                        if _box_gap2(x, ia, ja, ib, jb) > lim * lim * (1.0 + 1e-9):
+                            continue  # the axes' boxes alone are farther apart than lim
                         s, t = segment_segment_closest(row3(x, ia), row3(x, ja), row3(x, ib), row3(x, jb))
                         ex = (x[ia, 0] + s * (x[ja, 0] - x[ia, 0])
                               - x[ib, 0] - t * (x[jb, 0] - x[ib, 0]))
@@ -124,7 +145,6 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
                               - x[ib, 1] - t * (x[jb, 1] - x[ib, 1]))
                         ez = (x[ia, 2] + s * (x[ja, 2] - x[ia, 2])
                               - x[ib, 2] - t * (x[jb, 2] - x[ib, 2]))
-                        lim = seg_rmax[a] + seg_rmax[b] + skin
                         if ex * ex + ey * ey + ez * ez < lim * lim:
                             if n < cap:
                                 keys[n] = a * ns + b

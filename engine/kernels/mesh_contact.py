@@ -156,7 +156,7 @@ def initial_overlap(bodies) -> tuple[int, float]:
                                            bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal,
                                            bd.grid_origin, bd.grid_cell, bd.grid_dims,
                                            bd.grid_base, bd.grid_start, bd.grid_tris,
-                                           np.zeros(3))
+                                           bd.grid_side, np.zeros(3))
                 count += n
                 worst = max(worst, depth / bd.mesh_len[a, b])
     return count, worst
@@ -165,7 +165,7 @@ def initial_overlap(bodies) -> tuple[int, float]:
 @njit(cache=True)
 def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, tedge, pnormal,
                     grid_origin, grid_cell, grid_dims, grid_base, grid_start, grid_tris,
-                    scratch):
+                    grid_side, scratch):
     """(how many of body s's contact points lie inside body t, the deepest one's depth)."""
     n = 0
     deepest = 0.0
@@ -177,7 +177,7 @@ def _deepest_points(s, t, bpos, bq, point_start, points, verts, tris, tnormal, t
             bpos[s, 1] + ry - bpos[t, 1], bpos[s, 2] + rz - bpos[t, 2])
         tri, _u, _v, _w, d = deep_closest(t, scratch, 0.0, verts, tris, tnormal, tedge, pnormal,
                                           grid_origin, grid_cell, grid_dims, grid_base,
-                                          grid_start, grid_tris)
+                                          grid_start, grid_tris, grid_side)
         if tri >= 0 and d > 0.0:
             n += 1
             deepest = max(deepest, d)

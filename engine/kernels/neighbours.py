@@ -93,7 +93,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
                                       bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
                                       bd.tris, bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
                                       bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
-                                      bd.grid_tris, bd.scratch2)
+                                      bd.grid_tris, bd.grid_side, bd.scratch2)
         if m_new > bl.s2.shape[0]:
             bl.n[1] = m_new
             return OVERFLOW_BODY

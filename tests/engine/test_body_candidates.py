@@ -5,13 +5,16 @@ out), checked against brute-force distances from trimesh, independent of the eng
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import trimesh
 
 import engine
-from engine.kernels.body_contacts import BSLOT, deep_closest, nearest_triangle
+from engine.assembly.bodies import classify_empty_cells
+from engine.kernels.body_contacts import (BSLOT, CELL_INSIDE, CELL_OUTSIDE, deep_closest,
+                                         nearest_triangle)
 from engine.errors import InstabilityError
 from engine.model import spec_bodies
 from engine.model.meshes import shape_mesh
@@ -236,11 +239,22 @@ def test_nearest_triangle_and_inside_test_match_trimesh():
     te = edge_normals(v, t)
     args = (v, t, tn, te, origin[None], np.array([cell]), dims[None], np.zeros(1, np.int64),
             start, gtris)
-    for p, ref in zip(pts, sd):
-        tri, u, vv, w, d = nearest_triangle(0, p, 1e-4, *args)
-        assert tri >= 0 and d == pytest.approx(abs(ref), abs=1e-12)
-        inside = deep_closest(0, p, 1e-4, v, t, tn, te, pn, *args[4:])[0] >= 0
-        assert inside == (ref > 1e-12) or abs(ref) < 1e-12
+    # the empty cells' sides as the build marks them (and, below, all unmarked: a search
+    # for every point); both must give the same answer
+    bd = SimpleNamespace(pos=np.zeros((1, 3)), watertight=np.array([True]),
+                         sphere_r=np.zeros(1), verts=v, tris=t, tnormal=tn, tedge=te,
+                         pnormal=pn, grid_origin=origin[None], grid_cell=np.array([cell]),
+                         grid_dims=dims[None], grid_base=np.zeros(1, np.int64),
+                         grid_start=start, grid_tris=gtris,
+                         grid_side=np.zeros(int(dims.prod()), np.int8))
+    classify_empty_cells(bd)
+    assert {CELL_INSIDE, CELL_OUTSIDE} <= set(np.unique(bd.grid_side))
+    for side in (bd.grid_side, np.zeros_like(bd.grid_side)):
+        for p, ref in zip(pts, sd):
+            tri, u, vv, w, d = nearest_triangle(0, p, 1e-4, *args)
+            assert tri >= 0 and d == pytest.approx(abs(ref), abs=1e-12)
+            inside = deep_closest(0, p, 1e-4, v, t, tn, te, pn, *args[4:], side)[0] >= 0
+            assert inside == (ref > 1e-12) or abs(ref) < 1e-12
 
 
 def test_wedge_run_forces_equal_with_every_segment_listed():
