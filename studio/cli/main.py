@@ -15,6 +15,7 @@ cancelled.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import sys
 from typing import Optional
@@ -124,7 +125,21 @@ def build_parser(argv: Optional[list[str]] = None) -> argparse.ArgumentParser:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
+    """Run the command line ``argv``; its exit code. Without ``argv`` this is the program
+    (``brush-studio`` and ``python -m studio.cli`` call it so and exit with its code): the
+    command line is ``sys.argv``, and the process is about to end."""
+    if argv is not None:
+        return _main(list(argv))
+    code = _main(sys.argv[1:])
+    # Leave what is left out of the cyclic garbage collector's reach: the interpreter's
+    # shutdown then frees it by reference counts only, without traversing the millions of
+    # objects numba, matplotlib and h5py created (about 0.4 CPU-s of a study process at
+    # commit b052d44). Exit handlers still run, and files close, as before.
+    gc.freeze()
+    return code
+
+
+def _main(argv: list[str]) -> int:
     parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)

@@ -78,3 +78,24 @@ def test_a_named_study_gets_the_same_parser(study):
     full = _sub(_sub(build_parser())["study"])[study]
     lazy = _sub(_sub(build_parser(["study", study, "--help"]))["study"])
     assert study in lazy and lazy[study].format_help() == full.format_help()
+
+
+_FREEZE = """
+import contextlib, gc, io, json, sys
+from studio.cli.main import main
+with contextlib.redirect_stdout(io.StringIO()):
+    main(["study", "wedge", "--help"])   # called with a command line: a host process (tests, the service)
+in_process = gc.get_freeze_count()
+sys.argv = ["brush-studio", "--version"]
+with contextlib.redirect_stdout(io.StringIO()):
+    main()                                # the program itself: it is about to exit
+print(json.dumps([in_process, gc.get_freeze_count() > 0]))
+"""
+
+
+def test_only_the_program_entry_freezes_the_garbage_collector():
+    # main(argv) in a long-lived process must leave the cyclic collector alone (frozen
+    # objects are never collected); main() as the program freezes before the exit
+    p = subprocess.run([sys.executable, "-c", _FREEZE], cwd=ROOT, capture_output=True,
+                       text=True, check=True)
+    assert json.loads(p.stdout.splitlines()[-1]) == [0, True]
