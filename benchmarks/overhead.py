@@ -17,8 +17,9 @@ temporary folder, after a warm-up run that fills the numba cache and is not coun
 - *kernel load*: that load;
 - *overhead* = whole - stepping, and its share of whole.
 
-The child is ``python -c <_CHILD> ARGS``: ``studio.cli.main.main(ARGS)`` with the wrapper
-installed first, the same as ``python -m studio.cli ARGS`` otherwise.
+The child is ``python -c <_CHILD> TALLY ARGS``: ``studio.cli.main.main()`` with ``sys.argv``
+set to ARGS and the wrapper installed first, the same as ``python -m studio.cli ARGS``
+otherwise.
 
 Usage (from the repository root)::
 
@@ -62,8 +63,10 @@ def timed(*args):
 
 loop.advance = timed
 from studio.cli.main import main
-code = main(sys.argv[2:])
-with open(sys.argv[1], "w") as f:
+tally_path = sys.argv[1]
+sys.argv = ["brush-studio"] + sys.argv[2:]
+code = main()  # as the program itself, which ``python -m studio.cli`` runs
+with open(tally_path, "w") as f:
     json.dump(tally, f)
 sys.exit(code)
 """
@@ -86,12 +89,15 @@ def run_once(out: str, tally: str) -> tuple[float, dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3, help="runs (median), default 3")
+    ap.add_argument("--no-warm-up", action="store_true",
+                    help="leave out the warm-up run (the numba cache is known to be warm)")
     args = ap.parse_args(argv)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
                             capture_output=True, text=True).stdout.strip()
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-overhead-") as tmp:
-        run_once(tempfile.mkdtemp(dir=tmp), os.path.join(tmp, "warm.json"))  # not counted
+        if not args.no_warm_up:
+            run_once(tempfile.mkdtemp(dir=tmp), os.path.join(tmp, "warm.json"))  # not counted
         for r in range(args.repeat):
             cpu, t = run_once(tempfile.mkdtemp(dir=tmp), os.path.join(tmp, f"t{r}.json"))
             rows.append((cpu, t["stepping"], t["load"], t["calls"]))
