@@ -4,7 +4,8 @@ The commands are read from the doc itself: under each ``### NAME`` heading of th
 every ``bash`` block is one measured command (``brush-studio`` run as
 ``python -m studio.cli`` from this checkout); a ``python`` block before it (a file the
 command reads) runs first, in the same folder, and is not counted. Each command runs in a
-fresh empty folder, in a fresh child process; its CPU is user + system of the child and
+fresh folder, empty but for a link ``static_presets`` to the repository's (as
+``tests/docs/test_docs_run.py`` runs the docs' blocks), in a fresh child process; its CPU is user + system of the child and
 everything it waited for (``resource.getrusage(RUSAGE_CHILDREN)``). A warm-up command fills
 the numba cache first and is not counted. One thread (``NUMBA_NUM_THREADS=1``).
 
@@ -84,6 +85,8 @@ def main(argv=None) -> int:
                         "--no-unload --workers 1 -o warm"), tmp)  # fills the cache
         for name, setup, command in todo:
             folder = tempfile.mkdtemp(dir=tmp)
+            # as the docs test runs them: an empty folder with a link to the presets
+            (Path(folder) / "static_presets").symlink_to(ROOT / "static_presets")
             for code in setup:
                 run_cpu([sys.executable, "-c", code], folder)
             cpu = run_cpu(as_args(command), folder)
