@@ -14,8 +14,12 @@ temporary folder, after a warm-up run that fills the numba cache and is not coun
   the compiled step loop ``engine.kernels.stepper.advance`` made by
   ``engine.stepping.loop``; the first call's load of the cached kernel is timed apart
   (``Dispatcher.compile`` with the call's types, before the call) and counted as overhead;
-- *kernel load*: that load;
-- *overhead* = whole - stepping, and its share of whole.
+- *overhead* = whole - stepping, and its share of whole, split into: the import of the
+  engine's step loop and build (numba, the kernels' modules), numba's one-time set-up of its
+  CPU target (which the first kernel call would do; done before the command to time it
+  apart), ``engine.build``, the step kernel's load, ``plot_force_depth`` (matplotlib's
+  import and the figure), and the rest (interpreter, CLI and study imports, the Python
+  between the step calls, the CSV/HDF5 outputs, the exit).
 
 The child is ``python -c <_CHILD> TALLY ARGS``: ``studio.cli.main.main()`` with ``sys.argv``
 set to ARGS and the wrapper installed first, the same as ``python -m studio.cli ARGS``
@@ -45,10 +49,33 @@ ARGS = ["study", "wedge", "--preset", "static_presets/wedge_60.json", "--workers
 
 _CHILD = r"""
 import json, sys, time
+t0 = time.process_time()
 import engine.stepping.loop as loop
+import engine.assembly.system as system_module
+import studio.studies.plots as plots
+tally = {"stepping": 0.0, "load": 0.0, "calls": 0, "engine_import": time.process_time() - t0}
+# numba's one-time set-up of its CPU target (its implementation modules, scipy.linalg for
+# its BLAS check): the first kernel call or cache load does it; done here to time it apart
+from numba.core.registry import cpu_target
+t0 = time.process_time()
+cpu_target.target_context.refresh()
+tally["numba_init"] = time.process_time() - t0
 
+def timing(module, name, key):
+    f = getattr(module, name)
+    def timed(*args, **kwargs):
+        t = time.process_time()
+        try:
+            return f(*args, **kwargs)
+        finally:
+            tally[key] = tally.get(key, 0.0) + time.process_time() - t
+    setattr(module, name, timed)
+
+timing(system_module, "build", "build")
+import engine
+engine.__dict__.pop("build", None)  # engine.build is looked up in the module again
+timing(plots, "plot_force_depth", "plot")
 kernel = loop.advance
-tally = {"stepping": 0.0, "load": 0.0, "calls": 0}
 
 def timed(*args):
     if not kernel.overloads:  # first call: load the cached kernel apart from the stepping
@@ -102,8 +129,12 @@ def main(argv=None) -> int:
             cpu, t = run_once(tempfile.mkdtemp(dir=tmp), os.path.join(tmp, f"t{r}.json"))
             rows.append((cpu, t["stepping"], t["load"], t["calls"]))
             print(f"  run {r + 1}: whole {cpu:.2f} CPU-s, stepping {t['stepping']:.2f} "
-                  f"({t['calls']} calls), kernel load {t['load']:.2f}, overhead "
-                  f"{cpu - t['stepping']:.2f} ({(cpu - t['stepping']) / cpu:.1%})", flush=True)
+                  f"({t['calls']} calls), overhead {cpu - t['stepping']:.2f} "
+                  f"({(cpu - t['stepping']) / cpu:.1%}): engine + numba import "
+                  f"{t['engine_import']:.2f}, numba's set-up {t['numba_init']:.2f}, build "
+                  f"{t.get('build', 0):.2f}, step kernel load {t['load']:.2f}, plot "
+                  f"{t.get('plot', 0):.2f}, the rest (interpreter, CLI, the Python between "
+                  f"steps, outputs, exit) {cpu - t['stepping'] - t['engine_import'] - t['numba_init'] - t.get('build', 0) - t['load'] - t.get('plot', 0):.2f}", flush=True)
     whole = statistics.median(r[0] for r in rows)
     step = statistics.median(r[1] for r in rows)
     share = statistics.median((r[0] - r[1]) / r[0] for r in rows)
