@@ -1,6 +1,6 @@
 """``brush-studio study <name> ...``: the studies as command-line subcommands.
 
-Each module in :data:`STUDY_MODULES` exposes ``add_parser(study_subparsers)``, which adds its
+Each module named in :data:`STUDY_COMMANDS` exposes ``add_parser(study_subparsers)``, which adds its
 subcommand with ``set_defaults(func=...)`` (a function of the parsed arguments returning an
 exit code: 0 ok, 1 some runs failed, 2 bad input, 130 cancelled). Common options
 (``-o/--output``, ``--scheduler``, ``--workers``, ``--no-progress``) come from
@@ -10,17 +10,41 @@ the engine inside their commands only, so that ``brush-studio --help`` stays fas
 """
 from __future__ import annotations
 
-from . import capture, detumble, docking, fur, optimise, reduce, refinement, sensitivity, trap
-from .rod import study as rod_study
-from .spin import study as spin_study
-from .wedge import study as wedge_study
+import importlib
+from typing import Optional, Sequence
 
-STUDY_MODULES = (wedge_study, refinement, sensitivity, rod_study, spin_study, detumble,
-                 reduce, fur, docking, capture, trap, optimise)
+#: ``study NAME`` -> the module whose ``add_parser`` adds it, in the order ``study --help``
+#: lists them (``sensitivity`` adds ``montecarlo`` too)
+STUDY_COMMANDS = {
+    "wedge": "studio.studies.wedge.study",
+    "refinement": "studio.studies.refinement",
+    "sensitivity": "studio.studies.sensitivity",
+    "montecarlo": "studio.studies.sensitivity",
+    "rod": "studio.studies.rod.study",
+    "spin": "studio.studies.spin.study",
+    "detumble": "studio.studies.detumble",
+    "reduce": "studio.studies.reduce",
+    "fur": "studio.studies.fur",
+    "docking": "studio.studies.docking",
+    "capture": "studio.studies.capture",
+    "trap": "studio.studies.trap",
+    "optimise": "studio.studies.optimise",
+}
 
 
-def register(subparsers) -> None:
-    """Add ``study`` and its sub-subcommands to the top-level ``brush-studio`` parser."""
+def study_modules(name: Optional[str] = None) -> list:
+    """The modules that add ``study NAME`` (just the one for a known ``name``, else all of
+    them, once each, in :data:`STUDY_COMMANDS`' order), imported."""
+    paths = [STUDY_COMMANDS[name]] if name in STUDY_COMMANDS else STUDY_COMMANDS.values()
+    return [importlib.import_module(m) for m in dict.fromkeys(paths)]
+
+
+def register(subparsers, argv: Optional[Sequence[str]] = None) -> None:
+    """Add ``study`` and its sub-subcommands to the top-level ``brush-studio`` parser;
+    ``argv``, the words after ``study`` on the command line: when its first names a study,
+    only that study's module is imported and its subcommand added (a run of one study does
+    not pay the imports of the twelve others); otherwise (``study --help``, an unknown
+    name) all are."""
     p = subparsers.add_parser(
         "study", help="run a study (many simulations) into an output folder",
         description="Studies run many simulations on Dask distributed (a local cluster using "
@@ -31,5 +55,5 @@ def register(subparsers) -> None:
         epilog="Exit codes: 0 ok, 1 some runs failed (listed with their parameters), "
                "2 bad input, 130 cancelled.")
     sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
-    for module in STUDY_MODULES:
+    for module in study_modules(argv[0] if argv else None):
         module.add_parser(sub)
