@@ -18,7 +18,7 @@ PER_ITEM = {
     body_contacts: ("_bristle_body_candidate", "closest_triangle", "nearest_triangle",
                     "deep_closest", "feature_normal", "_point_fade_forces",
                     "_mesh_fade_forces", "_edge_fade_forces", "_holds_edge",
-                    "edge_face_fade"),
+                    "edge_face_fade", "_beyond_an_edge"),
     neighbours: ("predicted_displacement", "lists_stale"),
     stepper: ("check_state", "local_damping", "add_gravity",
               "add_loads", "roots_follow", "roots_to_bodies"),
