@@ -285,8 +285,14 @@ def test_read_while_writer_is_open_same_process(tmp_path):
 def test_series_never_returns_uncommitted_rows(tmp_path):
     path = tmp_path / "tail.h5"
     rec = new_recorder(path, flush_every=4)
-    for i in range(6):  # 4 committed, 2 written but not counted by n_frames
+    for i in range(4):  # committed
         rec.append(frame_values(i))
+    # a writer killed inside a commit, after its rows reached the datasets and before it
+    # bumped n_frames: 2 rows written but not counted
+    for name, ds in rec._datasets.items():
+        ds.resize(6, axis=0)
+        ds[4:6] = np.stack([np.asarray(frame_values(i)[name], ds.dtype) for i in (4, 5)])
+    rec._file.flush()
     with open_result(path) as r:
         assert r._file["time"].shape[0] == 6  # the rows exist in the dataset...
         assert r.n_frames == 4                 # ...but only committed ones are shown
@@ -492,3 +498,47 @@ def test_refresh_sees_frames_another_process_wrote_since(tmp_path):
         res.close()
     finally:
         proc.kill()
+
+
+def test_rows_wait_in_memory_until_a_commit_by_count_size_or_time(tmp_path, monkeypatch):
+    """The run loop's policy: rows are written at a commit only, which comes after
+    ``flush_every`` frames, once the waiting rows hold ``buffer_bytes``, or ``commit_seconds``
+    after the last commit; what was appended is what is written, even if the caller reuses
+    its arrays."""
+    import engine.io.recorder as recorder_module
+
+    clock = [100.0]
+    monkeypatch.setattr(recorder_module.time, "monotonic", lambda: clock[0])
+
+    def committed(path):
+        with open_result(path) as r:
+            return r.n_frames, r._file["time"].shape[0]
+
+    # by time: nothing reaches the file before commit_seconds have passed
+    path = tmp_path / "time.h5"
+    rec = new_recorder(path, flush_every=1000, commit_seconds=1.0)
+    reused = frame_values(0)
+    for i in range(3):
+        fr = frame_values(i)
+        reused["nodes/positions"][:] = fr["nodes/positions"]  # one array, refilled each frame
+        rec.append({**fr, "nodes/positions": reused["nodes/positions"]})
+    assert committed(path) == (0, 0)
+    clock[0] += 1.0
+    rec.append(frame_values(3))
+    assert committed(path) == (4, 4)
+    rec.close("completed")
+    with open_result(path) as r:
+        assert_frames(r, 4)  # each frame's own positions, not the reused array's last ones
+
+    # by size: two frames' worth of bytes commit every second frame
+    path = tmp_path / "size.h5"
+    one = sum(np.asarray(v).nbytes for v in frame_values(0).values())
+    rec = new_recorder(path, flush_every=1000, buffer_bytes=2 * one)
+    rec.append(frame_values(0))
+    assert committed(path) == (0, 0)
+    rec.append(frame_values(1))
+    assert committed(path) == (2, 2)
+    rec.close("completed")
+
+    with pytest.raises(ValueError, match="commit_seconds"):
+        new_recorder(tmp_path / "bad.h5", commit_seconds=0.0)
