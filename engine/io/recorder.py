@@ -20,9 +20,9 @@ Killed-run safety (SIGKILL, not power loss)
   rewrites ``n_frames`` in place and flushes again. So ``n_frames`` never counts a row that is
   not on disk; rows past it (a dataset may have been extended before the crash) are never
   shown by the reader, and a kill loses only the rows not yet committed. The run loop commits
-  at least every second (``RUN_COMMIT_SECONDS``): a live view lags by at most that, and a
-  frame costs one copy in memory instead of a resize and a write per channel (51 channels of
-  a detumble scene took 17 ms a frame).
+  every quarter second of wall time (``RUN_COMMIT_SECONDS``): a live view lags by about that,
+  and a frame costs one copy in memory instead of a resize and a write per channel (51
+  channels of a detumble scene took 17 ms a frame).
 * Chunks are unfiltered (no compression) and bypass the chunk cache, so a row is written to its
   final, fixed place in the file and already-committed bytes are never moved.
 * The file is built under a temporary name next to the target (``.<name>.creating``) and
@@ -113,8 +113,8 @@ def _open_for_writing(path: Path) -> h5py.File:
     return h5py.File(fid)
 
 
-#: the run loop's commit interval (wall seconds): what a live view lags and a kill may lose
-RUN_COMMIT_SECONDS = 1.0
+#: the run loop's commit interval (wall seconds): about what a live view lags and a kill loses
+RUN_COMMIT_SECONDS = 0.25
 #: the run loop commits by time and size only, not by a frame count
 RUN_FLUSH_EVERY = 1 << 30
 
