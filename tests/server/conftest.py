@@ -44,6 +44,10 @@ class ServerProcess:
         self.proc = subprocess.Popen(cmd, cwd=str(ROOT), env=env, stdout=self._log_file,
                                      stderr=subprocess.STDOUT)
         self.client = httpx.Client(base_url=self.url, timeout=300)
+        # a server with a token tells its workers only to a request that carries it
+        args = list(args)
+        self._health_headers = ({"Authorization": f"Bearer {args[args.index('--token') + 1]}"}
+                                if "--token" in args else {})
         self._wait_up()
 
     def _wait_up(self) -> None:
@@ -53,7 +57,7 @@ class ServerProcess:
                 raise RuntimeError(f"server exited with {self.proc.returncode}:\n"
                                    f"{self.log.read_text()}")
             try:
-                r = self.client.get("/api/health", timeout=2)
+                r = self.client.get("/api/health", timeout=2, headers=self._health_headers)
                 if r.status_code == 200 and r.json()["workers_alive"] > 0:
                     return
             except httpx.HTTPError:
