@@ -51,6 +51,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
         self.loaded_scene: dict = us.scene_dict(scene)  # what has_edits compares with
         self.sel = us.Selection()
         self.errors: dict[str, list[str]] = {}
+        self.loads = 0                # designs loaded over this one (set_design): for scripts
         self.mode = "design"          # design | live | playback
         self.active_job: Optional[str] = None    # the job streamed live
         self.my_jobs: list[str] = []
@@ -178,6 +179,7 @@ class Session(DesignPanel, RunPanel, ResultsPanel, ComparePanel, StudiesPanel):
                 "active_job": self.active_job,
                 "errors": {k: list(v) for k, v in self.errors.items()},
                 "edited": self.has_edits(),
+                "loads": self.loads,
                 "brush": int(self.sel.brush),
                 "body": int(self.sel.body),
                 "warnings": {k: list(v) for k, v in self.warnings.items()},

@@ -179,18 +179,23 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
                 page.keyboard.press("Escape")
                 continue
             page.wait_for_timeout(300)
+        loads = studio.state()["loads"]
         click(page, "Load preset")
         # a design with edits asks before they are discarded: confirm in its dialog
         discard = page.get_by_role("button", name=f"Discard edits and load {name}",
                                    exact=True)
         deadline = time.monotonic() + 10
         st = studio.state()
-        while not _loaded(st, scene.name, rows) and time.monotonic() < deadline:
+        # wait for the load itself (``loads`` grows when it has finished): a tab that shows
+        # the preset already (the studio opens on the demo) looked loaded before the click
+        # was handled, and the load's refresh then overwrote a value typed after it
+        while not (st["loads"] > loads and _loaded(st, scene.name, rows)) and \
+                time.monotonic() < deadline:
             if discard.count():
                 discard.evaluate("b => b.click()")
             time.sleep(0.2)
             st = studio.state()
-        if _loaded(st, scene.name, rows):
+        if st["loads"] > loads and _loaded(st, scene.name, rows):
             break
         if attempt == 2:
             raise AssertionError(f"preset {name} not loaded; last state: "

@@ -232,6 +232,7 @@ class DesignPanel(DesignHistory, BrushSelector, DesignFiles):
     def set_design(self, scene) -> None:
         """Replace the whole design (a preset, an upload) by a validated engine.Scene."""
         with self.lock:
+            self.loads += 1
             self.hold_design(scene)
             self.loaded_scene = copy.deepcopy(self.scene)   # (has_edits compares with it)
             self.loaded_label = f"{self.scene.get('name', 'scene')!r} was loaded"
