@@ -274,13 +274,21 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     """Dask task: run one detumble scene and summarise it (JSON-able)."""
     import engine
 
+    from .contact_peak import ContactForcePeak
+
     system = engine.build(scene)
-    result = engine.run(system, output=h5_path, cancel=api.cancel_requested)
+    # the largest single bristle contact on the target (a DEM brush: a reduced one has none)
+    dem_brush = any(b.mount == CHASER for b in scene.brushes)
+    peak = (ContactForcePeak(system, list(system.body_names).index(TARGET))
+            if dem_brush else None)
+    result = engine.run(system, output=h5_path, cancel=api.cancel_requested, observer=peak)
     api.check_cancel()
     data = read_detumble(h5_path)
     out = analyse(data, params["threshold"], params["stress_limit"],
                   isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0),
                   sn_curve=params.get("sn_curve"))
+    out.update(pressure_figures(system, out["peak_target_force"],
+                                peak.peak if peak is not None else None))
     if "fatigue" in data:
         write_fatigue_table(Path(h5_path).with_suffix(".fatigue.csv"), data["fatigue"])
     if params.get("spot_check_s"):
@@ -295,6 +303,41 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
                else "failed", dt=system.dt, wall_s=wall, steps=s.get("steps"),
                n_nodes=system.n_nodes,
                node_steps_per_s=(s.get("steps") or 0) * system.n_nodes / wall if wall else None)
+    return out
+
+
+def footprint_area(system) -> float:
+    """The area the chaser's brushes press on, m^2, of a built scene (``engine.System``):
+    each mounted brush's footprint (``reduce.patch_size``: its grid's extent plus one tip
+    diameter), or each reduced patch's size as the build resolved it (:func:`reduced_scene`
+    gives it that footprint)."""
+    from .reduce import patch_size
+
+    mounted = [b for b in system.scene.brushes if b.mount == CHASER]
+    if mounted:
+        return float(sum(math.prod(patch_size(b.model_dump())) for b in mounted))
+    return float(sum(p["size"][0] * p["size"][1] for p in system.patch_info
+                     if p["body"] == CHASER))
+
+
+def pressure_figures(system, peak_force: float,
+                     peak_contact_force: Optional[float]) -> dict:
+    """Contact pressure on the target (issue 25 item 6): ``peak_footprint_pressure``, the
+    largest push on the target over the brush footprint (a mean; both fidelities), and, for
+    a DEM brush, ``peak_contact_force`` (the largest single bristle contact, at the recorded
+    frames) and ``peak_contact_pressure``, that force over the tip's cross-section pi r_tip^2
+    (a nominal pressure, as the design search reports it). A reduced brush has no single
+    contacts: those two are None."""
+    from .contact_peak import footprint_pressure, nominal_pressure
+
+    area = footprint_area(system)
+    out = {"footprint_area": area,
+           "peak_footprint_pressure": footprint_pressure(peak_force, area) if area else None,
+           "peak_contact_force": None, "peak_contact_pressure": None}
+    if peak_contact_force is not None:
+        r_tip = min(b.tip_radius for b in system.scene.brushes if b.mount == CHASER)
+        out.update(peak_contact_force=float(peak_contact_force),
+                   peak_contact_pressure=nominal_pressure(peak_contact_force, r_tip))
     return out
 
 

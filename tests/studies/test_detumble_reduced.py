@@ -59,6 +59,10 @@ def test_study_detumble_reduced_with_a_dem_spot_check(tmp_path):
     assert r["omega_end"] < r["omega0"]          # the patch's friction takes spin
     assert r["peak_bending_stress"] is None      # no bristles
     assert r["patches"][0]["steps_in_contact"] > 0
+    # a reduced brush has no single contacts; its push is spread over the patch's footprint
+    assert r["peak_contact_force"] is None and r["peak_contact_pressure"] is None
+    assert r["peak_footprint_pressure"] == pytest.approx(
+        r["peak_target_force"] / r["footprint_area"], rel=1e-12)
     spot = r["spot_check"]
     assert spot["dem"]["window_s"] == spot["reduced"]["window_s"] == 2.0
     for key in ("delta_omega", "mean_torque", "peak_torque"):

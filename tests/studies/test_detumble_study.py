@@ -152,6 +152,8 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
     assert code == 0
     summary = json.loads((out / "detumble_summary.json").read_text())["runs"]
     assert [r["spin_deg"] for r in summary] == [5.0, 10.0]
+    (brush,) = detumble.detumble_scene("detumble_upper_stage")["brushes"]
+    assert brush["pitch"][0] == brush["pitch"][1]
     for r in summary:
         # fatigue (issue 25 item 6): the stresses are >= 0, so no amplitude (half a range)
         # exceeds the peak stress, and the worst bristle's damage is what runs_to_failure
@@ -178,6 +180,19 @@ def test_study_command_sweeps_spins_and_writes_summary_and_plot(tmp_path):
         assert r["delta_v_per_axis"] >= 0.95 * r["delta_v_gimballed"]
         assert r["propellant_per_axis"] > 0 and r["peak_chaser_torque_com"] > 0
         assert r["time_in_contact"] > 0 and r["min_separation"] > 0
+        # contact pressure (issue 25 item 6): the brush's push over its 3 x 3 footprint (two
+        # pitches plus a tip diameter a side), and the largest single tip contact over the
+        # tip's section; at the frame of the largest push |sum f_i| <= n max|f_i|, so the
+        # largest single contact is at least that push over the most contacts of any frame
+        side = 2 * brush["pitch"][0] + 2 * brush["tip_radius"]
+        assert r["footprint_area"] == pytest.approx(side ** 2, rel=1e-12)
+        assert r["peak_footprint_pressure"] == pytest.approx(
+            r["peak_target_force"] / side ** 2, rel=1e-12)
+        with engine.open_result(out / "runs" / f"{r['run_id']}.h5") as res:
+            most = res.series("contacts/bristle_body").max()
+        assert r["peak_target_force"] / most <= r["peak_contact_force"] * (1 + 1e-9)
+        assert r["peak_contact_pressure"] == pytest.approx(
+            r["peak_contact_force"] / (math.pi * brush["tip_radius"] ** 2), rel=1e-12)
     # L0 = I_axis (w0 + n): inertial, the recorded w being relative to the Hill frame
     n = engine.parse_scene(detumble.detumble_scene("detumble_upper_stage")).environment.orbit.n
     assert summary[1]["angular_momentum0"] / summary[0]["angular_momentum0"] == pytest.approx(

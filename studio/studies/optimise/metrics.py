@@ -58,6 +58,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..contact_peak import ContactForcePeak, nominal_pressure
 from .errors import StudyInputError
 
 METRICS = {
@@ -174,27 +175,6 @@ class FirstContactMonitor:
         return self.fired
 
 
-class ContactForcePeak:
-    """``observer`` for ``engine.run``: the largest single bristle-body contact force on body
-    ``body_index`` over the recorded frames (N), read at each frame from the engine's own
-    contact list (``System.body_pairs``: each active contact's force ``fc``), which no
-    channel records."""
-
-    def __init__(self, system, body_index: int):
-        self.system, self.k = system, body_index
-        self.peak = 0.0
-
-    def __call__(self, frame) -> None:
-        from engine.kernels.body_contacts import BSLOT
-
-        bl = self.system.body_pairs  # read each time: a growing list is replaced
-        n = int(bl.n[0])
-        on = (bl.active[:n * BSLOT] != 0) & (np.repeat(bl.b[:n], BSLOT) == self.k)
-        if on.any():
-            self.peak = max(self.peak,
-                            float(np.linalg.norm(bl.fc[:n * BSLOT][on], axis=1).max()))
-
-
 def run_metrics(scene, h5_path: Path, params: dict) -> dict:
     """Dask task (``"module:function"`` of :mod:`studio.studies.runner`): run one design x
     scenario, return its metrics (JSON-able; ``sim_cpu_s``: CPU of build + run, the rest of
@@ -278,7 +258,7 @@ def analyse_run(h5_path: Path, target: str, stress_limit: float, *,
     out.update(chaser_figures(**load))
     r_tip = scene.brushes[0].tip_radius
     out["peak_contact_pressure"] = (None if peak_contact_force is None
-                                    else float(peak_contact_force / (math.pi * r_tip ** 2)))
+                                    else nominal_pressure(peak_contact_force, r_tip))
     return out
 
 
