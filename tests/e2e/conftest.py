@@ -127,7 +127,9 @@ def shot(request):
     def take(pg, name: str) -> Path:
         path = ARTIFACTS / f"{request.node.name}-{name}.png"
         pg.wait_for_timeout(700)  # let the 3D view render the last update
-        pg.screenshot(path=str(path))
+        # (90 s: with software WebGL on a loaded 2-core machine a page once took over the
+        # default 30 s to give a frame)
+        pg.screenshot(path=str(path), timeout=90_000)
         return path
 
     return take

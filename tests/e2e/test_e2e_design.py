@@ -13,7 +13,7 @@ def _page_text(page) -> str:
     return page.evaluate("() => document.body.textContent")
 
 
-def _wait_dom_text(page, text: str, timeout: float = 20.0, present: bool = True) -> None:
+def _wait_dom_text(page, text: str, timeout: float = 60.0, present: bool = True) -> None:
     deadline = time.monotonic() + timeout
     while (text in _page_text(page)) != present:
         assert time.monotonic() < deadline, f"{text!r} {'never' if present else 'still'} " \
