@@ -14,8 +14,9 @@ Killed-run safety (SIGKILL, not power loss)
   mode at the end of ``__init__``. From then on HDF5 orders its metadata writes so that the file
   on disk is always a valid HDF5 file, whatever moment the writer dies at.
 * Root attribute ``n_frames`` is the commit marker. Appended rows wait in memory until a
-  commit: every ``flush_every`` frames, once they hold ``buffer_bytes``, or ``commit_seconds``
-  after the last commit (whichever comes first), and at ``close``. A commit writes the waiting
+  commit: every ``flush_every`` frames (None: never by count), once they hold
+  ``buffer_bytes``, or ``commit_seconds`` after the last commit (whichever comes first), and
+  at ``close``. A commit writes the waiting
   rows (one block per channel), flushes (rows and dataset extents reach the file), then
   rewrites ``n_frames`` in place and flushes again. So ``n_frames`` never counts a row that is
   not on disk; rows past it (a dataset may have been extended before the crash) are never
@@ -115,8 +116,6 @@ def _open_for_writing(path: Path) -> h5py.File:
 
 #: the run loop's commit interval (wall seconds): about what a live view lags and a kill loses
 RUN_COMMIT_SECONDS = 0.25
-#: the run loop commits by time and size only, not by a frame count
-RUN_FLUSH_EVERY = 1 << 30
 
 
 class Recorder:
@@ -125,14 +124,14 @@ class Recorder:
     def __init__(self, path, scene_json: str,
                  channels: dict[str, tuple[tuple[int, ...], str]],
                  static: dict[str, np.ndarray], attrs: dict | None = None,
-                 flush_every: int = 1, commit_seconds: float | None = None,
+                 flush_every: int | None = 1, commit_seconds: float | None = None,
                  buffer_bytes: int = 32 << 20):
         self.path = Path(path)
-        if int(flush_every) < 1:
-            raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
+        if flush_every is not None and int(flush_every) < 1:
+            raise ValueError(f"flush_every must be >= 1 or None, got {flush_every!r}")
         if commit_seconds is not None and not commit_seconds > 0:
             raise ValueError(f"commit_seconds must be > 0 or None, got {commit_seconds!r}")
-        self.flush_every = int(flush_every)
+        self.flush_every = None if flush_every is None else int(flush_every)
         self.commit_seconds = commit_seconds
         self.buffer_bytes = int(buffer_bytes)
         self._pending: list[dict[str, np.ndarray]] = []  # appended rows not yet written
@@ -249,7 +248,8 @@ class Recorder:
         self._pending.append(rows)
         self._pending_bytes += sum(row.nbytes for row in rows.values())
         self._n_written += 1
-        if (self._n_written - self._n_committed >= self.flush_every
+        if ((self.flush_every is not None
+             and self._n_written - self._n_committed >= self.flush_every)
                 or self._pending_bytes >= self.buffer_bytes
                 or (self.commit_seconds is not None
                     and time.monotonic() - self._last_commit >= self.commit_seconds)):

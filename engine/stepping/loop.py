@@ -24,7 +24,7 @@ from engine.errors import InstabilityError
 from engine.stepping.observables import energies
 from engine.io.output_paths import check_output_file
 from engine.stepping.observe import observer_calls
-from engine.io.recorder import RUN_COMMIT_SECONDS, RUN_FLUSH_EVERY, Recorder
+from engine.io.recorder import RUN_COMMIT_SECONDS, Recorder
 from engine.state import ACC_MAX_OVERLAP, ACC_REBUILDS, ACC_TIMED_STEPS, OK, STAGES, timed_slots
 from engine.kernels.stepper import advance
 
@@ -129,7 +129,7 @@ def run(system: System, until: Optional[float] = None,
     recorder = None
     if output is not None:
         recorder = Recorder(output, sc.to_json(), channels, static, attrs,
-                            flush_every=RUN_FLUSH_EVERY, commit_seconds=RUN_COMMIT_SECONDS)
+                            flush_every=None, commit_seconds=RUN_COMMIT_SECONDS)
         observers.append(recorder.append)
     begin, append = observer_calls(observer)
     if begin is not None:

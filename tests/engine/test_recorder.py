@@ -514,9 +514,10 @@ def test_rows_wait_in_memory_until_a_commit_by_count_size_or_time(tmp_path, monk
         with open_result(path) as r:
             return r.n_frames, r._file["time"].shape[0]
 
-    # by time: nothing reaches the file before commit_seconds have passed
+    # by time: nothing reaches the file before commit_seconds have passed (the run loop's
+    # flush_every=None: never by count)
     path = tmp_path / "time.h5"
-    rec = new_recorder(path, flush_every=1000, commit_seconds=1.0)
+    rec = new_recorder(path, flush_every=None, commit_seconds=1.0)
     reused = frame_values(0)
     for i in range(3):
         fr = frame_values(i)
