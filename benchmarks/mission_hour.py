@@ -7,8 +7,8 @@ scaled (its density kept: inertia x s^5) so that its axial moment is ``--inertia
 at ``--spin`` deg/s, the brush replaced by the patch (``detumble.reduced_scene``), the
 chaser's approach, controller, Clohessy-Wiltshire orbit and gravity-gradient torque as in
 the preset; the run's stop rule (the target detumbled) is removed so that it runs the whole
-``--duration``. Frames every ``--record-interval`` (default 10 s: each frame is flushed to
-disk, about 30 ms on the shared test machine, so 1 s frames cost more than the physics). A
+``--duration``. Frames every ``--record-interval`` (default 10 s; 1 s frames cost about
+2 ms each, written a block at a time). A
 short warm-up run (compiling or loading the kernels) comes first and is not timed. Prints the CPU seconds of the timed run (this process and its children,
 ``resource.getrusage``), its wall time, steps, dt, final spin, time in contact and where the
 step's time went; writes into a fresh output folder each run (``--out``, default a new
