@@ -240,9 +240,12 @@ def reduce_task(scene, h5_path: Path, params: dict) -> dict:
     kind = params["kind"]
     axis = np.array([*params.get("slide_axis", (1.0, 0.0)), 0.0])
     speed = params.get("speed", 0.0)
-    if kind == "press":
+    if kind in ("press", "check"):
         out.update(d=d.tolist(), dd=(-s["velocity"][:, 2]).tolist(),
-                   fn=s["contact_force"][:, 2].tolist())
+                   fn=s["contact_force"][:, 2].tolist(), time=s["time"].tolist())
+    if kind == "check":
+        axis_v = s["velocity"] @ axis
+        out.update(v=axis_v.tolist(), ft=(-s["contact_force"] @ axis).tolist())
     if kind in ("press", "slide") and speed > 0:
         # the samples of steady sliding in contact: the tangential law's (F_n, v, F_t)
         v = s["velocity"] @ axis
@@ -341,6 +344,38 @@ def compare(dem: dict, red: dict, scene: dict) -> dict:
     return e
 
 
+def check_sliding_press(law: dict, dem: dict) -> dict:
+    """A held-out sliding press (kinematic: the law's forces follow from the plate's path)
+    against its DEM run, over its samples from the law's ``fit_from`` interference on: the
+    peak normal force and the tangential impulse (the integral of F_t over time: what turns
+    a target's spin, the analogue of a contact's Delta-omega), DEM, reduced, relative
+    errors."""
+    from engine.model.reduced_law import friction_coefficient, normal_force
+
+    par = law["parameters"]
+    t, d, dd = (np.asarray(dem[k], float) for k in ("time", "d", "dd"))
+    fn, v, ft = (np.asarray(dem[k], float) for k in ("fn", "v", "ft"))
+    m = d >= law.get("fit_from", 0.0)
+    if m.sum() < 2:
+        raise ValueError("held-out sliding press: no samples past fit_from")
+    fn_r = normal_force(d, dd, par["k"], par["p"], par["c"], par["eta"])
+    ft_r = friction_coefficient(fn_r, np.abs(v), par["mu"], par["q"], par["v_s"]) * fn_r
+    # the window's samples are one contiguous stretch (the face goes below fit_from once)
+    tm = t[m]
+
+    def impulse(f):
+        return float(np.sum(0.5 * (f[m][1:] + f[m][:-1]) * np.diff(tm)))
+
+    rel = lambda a, b: (a - b) / abs(b)  # noqa: E731
+    out = {"window": [float(tm[0]), float(tm[-1])],
+           "dem": {"peak_fn": float(fn[m].max()), "tangential_impulse": impulse(ft),
+                   "normal_impulse": impulse(fn)},
+           "reduced": {"peak_fn": float(fn_r[m].max()), "tangential_impulse": impulse(ft_r),
+                       "normal_impulse": impulse(fn_r)}}
+    out["errors"] = {k: rel(out["reduced"][k], out["dem"][k]) for k in out["dem"]}
+    return out
+
+
 # ----------------------------------------------------------------------------- study
 def _floats(text, what: str, scale: float) -> list:
     from .study_command import number_list
@@ -375,6 +410,13 @@ def build_specs(options: "Options", design: dict):
             specs.append(RunSpec(sc["name"], sc, {"kind": "slide", "depth": depth,
                                                   "speed": speed, "slide_axis": axis,
                                                   "tip_plane": zt}, task))
+    check = [options.check_depth * 1e-3, options.check_rate * 1e-3, options.check_speed * 1e-3]
+    if all(v > 0 for v in check):
+        sc = press_scene(design, *check)
+        sc["name"] = "check_" + sc["name"]
+        specs.append(RunSpec(sc["name"], sc, {"kind": "check", "depth": check[0],
+                                              "rate": check[1], "speed": check[2],
+                                              "slide_axis": axis, "tip_plane": zt}, task))
     vt = options.impact_tangential * 1e-3
     for vn in _floats(options.impact_speeds, "--impact-speeds", 1e-3):
         for t_speed, spin in ((0.0, 0.0), (vt, 0.0), (0.0, options.impact_spin)):
@@ -464,6 +506,13 @@ class Options(StudyOptions):
                                           "in the brush's base plane: x along its columns, "
                                           "y across its rows (default y: the detumble "
                                           "presets' target surface moves across the rows)")
+    check_depth: float = Field(27.0, ge=0, description="held-out sliding press (never "
+                               "fitted, compared with the law): depth; 0 leaves it out",
+                               json_schema_extra={"metavar": "MM", "unit": "mm"})
+    check_rate: float = Field(15.0, ge=0, description="held-out sliding press: rate",
+                              json_schema_extra={"metavar": "MM_PER_S", "unit": "mm/s"})
+    check_speed: float = Field(100.0, ge=0, description="held-out sliding press: slide speed",
+                               json_schema_extra={"metavar": "MM_PER_S", "unit": "mm/s"})
     impact_speeds: _LIST = Field([30.0, 100.0], min_length=1,
                                  description="held-out impact normal speeds",
                                  json_schema_extra={"unit": "mm/s"})
@@ -530,8 +579,12 @@ def _run_study(options: Options, out: Path) -> int:
         rows.append({"run_id": o.run_id, **{k: o.params[k] for k in ("vn", "vt", "spin")},
                      **cmp_})
     law["validation"] = [{"run_id": r["run_id"], **r["errors"]} for r in rows]
+    checks = [{"run_id": o.run_id, **{k: o.params[k] for k in ("depth", "rate", "speed")},
+               **check_sliding_press(law, o.summary)}
+              for o in outcomes if o.params["kind"] == "check"]
+    law["validation_sliding"] = [{"run_id": c["run_id"], **c["errors"]} for c in checks]
     save_law(out / "law.json", law)
-    write_json_atomic(out / "validation.json", {"impacts": rows})
+    write_json_atomic(out / "validation.json", {"impacts": rows, "sliding": checks})
     write_json_atomic(out / "reduce_summary.json",
                       {"law": law, "runs": [{"run_id": o.run_id, "params": o.params,
                                              "wall_s": o.wall_s} for o in outcomes]})
@@ -546,6 +599,13 @@ def _run_study(options: Options, out: Path) -> int:
         e = r["errors"]
         print(f"  {r['run_id']:34s} {e['peak_fn']:8.1%} {e['dv_normal']:7.1%} {e['dw']:7.1%} "
               f"{e['dissipated']:7.1%} {e['force_history_rms']:8.1%}")
+    for c in checks:
+        dm, rd, e = c["dem"], c["reduced"], c["errors"]
+        print(f"Held-out sliding press {c['run_id']} (from {law['fit_from'] * 1e3:g} mm): "
+              f"peak F_n {dm['peak_fn']:.3g} / {rd['peak_fn']:.3g} N ({e['peak_fn']:+.1%}), "
+              f"tangential impulse {dm['tangential_impulse']:.3g} / "
+              f"{rd['tangential_impulse']:.3g} N s ({e['tangential_impulse']:+.1%}), "
+              f"normal impulse ({e['normal_impulse']:+.1%}) (DEM / reduced)")
     print(f"Wrote {out}/law.json, validation.json, reduce_summary.json")
     return 0
 

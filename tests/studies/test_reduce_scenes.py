@@ -71,3 +71,32 @@ def test_sliding_press_path_moves_at_the_speed_along_the_axis(axis):
     half = np.asarray(sc["bodies"][0]["shape"]["size"][:2]) / 2
     end = p[-1, :2]
     assert np.all(half - np.abs(end) >= np.array([a, b]) / 2)
+
+
+def test_held_out_sliding_press_check_against_a_known_law():
+    # synthetic "DEM" samples of a sliding press made by a known law: the check must give
+    # zero errors; the same samples against a law with twice the friction coefficient must
+    # give +100 % tangential impulse and 0 % normal (closed form: F_t is linear in mu). A
+    # window that ignored fit_from, or an impulse of the wrong force, breaks one of these
+    from engine.model.reduced_law import friction_coefficient, normal_force
+
+    law = {"parameters": {"k": 12.0, "p": 0.4, "c": 0.1, "eta": 0.8, "mu": 0.6, "q": -0.05,
+                          "v_s": 0.05}, "fit_from": 0.01}
+    par = law["parameters"]
+    t = np.linspace(0.0, 4.0, 801)
+    d = 0.03 - np.abs(0.015 * t - 0.03) - 0.002
+    dd = np.gradient(d, t)
+    v = np.full_like(t, 0.1)
+    fn = normal_force(d, dd, par["k"], par["p"], par["c"], par["eta"])
+    ft = friction_coefficient(fn, v, par["mu"], par["q"], par["v_s"]) * fn
+    # outside the window the "DEM" does something else (a first-touch spike): not counted
+    fn = np.where(d < 0.01, fn + 30.0, fn)
+    dem = {"time": t, "d": d, "dd": dd, "fn": fn, "v": v, "ft": ft}
+    same = red.check_sliding_press(law, dem)
+    for key, err in same["errors"].items():
+        assert err == pytest.approx(0.0, abs=1e-12), key      # the same law: round-off only
+    double = dict(law, parameters=dict(par, mu=1.2))
+    e = red.check_sliding_press(double, dem)["errors"]
+    assert e["tangential_impulse"] == pytest.approx(1.0, rel=1e-12)
+    assert e["normal_impulse"] == pytest.approx(0.0, abs=1e-12)
+    assert e["peak_fn"] == pytest.approx(0.0, abs=1e-12)
