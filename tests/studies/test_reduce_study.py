@@ -27,7 +27,7 @@ def test_reduce_on_a_tiny_brush_writes_a_valid_law(tmp_path):
     out = tmp_path / "red"
     code = main(["study", "reduce", "--rows", "1", "--columns", "2", "--depths", "20,30",
                  "--rates", "10,20", "--slide-depths", "15,30", "--speeds", "80,120",
-                 "--impact-speeds", "100,200", "--workers", "1", "--no-progress",
+                 "--impact-speeds", "30,60", "--workers", "1", "--no-progress",
                  "-o", str(out)])
     assert code == 0
     law = load_law(out / "law.json")
