@@ -16,7 +16,7 @@ temporary folder).
 
 Usage::
 
-    python benchmarks/mission_hour.py --law reduce-tiny/law.json
+    python benchmarks/mission_hour.py --law benchmarks/data/detumble_brush_17x5_sliding_law.json
 """
 from __future__ import annotations
 

@@ -186,8 +186,9 @@ def reduced_scene(scene: dict, law: dict) -> dict:
     same interference as the DEM brush. The law goes into the scene inline. A law fitted on
     a brush with fewer bristles (``law.brush``) is taken per bristle: its footprint is
     restated to the full brush's area times its bristle share, so the full brush carries
-    ``bristles / law bristles`` times its force at a depth (recorded in the inline law's
-    ``patch.size_restated``)."""
+    ``bristles / law bristles`` times its force at a depth, and its friction coefficient is
+    taken at the law's brush's share of the load (``mu`` times that share to the power
+    ``q``; both recorded in the inline law's ``patch.size_restated``)."""
     from engine.model.reduced_law import check_law
     from .reduce import patch_size
 
@@ -207,6 +208,15 @@ def reduced_scene(scene: dict, law: dict) -> dict:
             "from": [a_law, b_law], "why": f"per bristle: the law's {n_law} bristles carry "
                                           f"the share {n_law}/{n_full} of this footprint"}
         law["patch"]["size"] = [a_law * f, b_law * f]
+        # mu_eff = mu (F_n / 1 N)^q is the law's at ITS brush's load; the element takes it
+        # at the whole patch's, n_full / n_law times larger: per bristle, mu (s F_n)^q with
+        # s = n_law / n_full, i.e. mu s^q at the whole patch's load
+        par = law["parameters"]
+        share = n_law / n_full
+        par["mu"] = float(par["mu"]) * share ** float(par["q"])
+        law["patch"]["size_restated"]["mu"] = {
+            "from": float(par["mu"]) / share ** float(par["q"]),
+            "why": f"mu_eff per bristle: mu x ({n_law}/{n_full})^q"}
     tip = brush["bristle_length"] + brush["tip_radius"]
     patches = []
     for i, br in enumerate(mounted):

@@ -48,7 +48,7 @@ def fit_normal(d, dd, fn, *, guess=None) -> dict:
         load = (dd >= 0) & (fn > 0)
         if load.sum() >= 2:
             p0, lk = np.polyfit(np.log(d[load]), np.log(fn[load]), 1)
-            guess = (float(np.exp(lk)), float(np.clip(p0, 0.6, 3.0)), 0.1, 0.8)
+            guess = (float(np.exp(lk)), float(np.clip(p0, 0.1, 3.0)), 0.1, 0.8)
         else:
             guess = (scale / d.max(), 1.0, 0.1, 0.8)
     # k in log form keeps it positive and well scaled
@@ -57,7 +57,7 @@ def fit_normal(d, dd, fn, *, guess=None) -> dict:
     def resid(x):
         return (normal_force(d, dd, np.exp(x[0]), x[1], x[2], x[3]) - fn) / scale
 
-    res = optimize.least_squares(resid, x0, bounds=([-50, 0.3, -50.0, 0.05],
+    res = optimize.least_squares(resid, x0, bounds=([-50, 0.05, -50.0, 0.05],
                                                     [80, 4.0, 50.0, 1.0]),
                                  x_scale="jac", method="trf")
     out = _intervals(res, ("log_k",) + NORMAL_PARAMS[1:], 1.0)

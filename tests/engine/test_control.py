@@ -261,3 +261,35 @@ def test_contact_channels_hold_contact_alone_and_actuators_their_own():
     np.testing.assert_allclose(thrust, world, rtol=0, atol=1e-12 * np.abs(world).max())
     # (frame 0 precedes the first force evaluation)
     np.testing.assert_allclose(total[1:], thrust[1:] + f_ext, rtol=0, atol=1e-12)
+
+
+def test_automatic_dt_is_at_most_the_sample_interval_and_the_hold_follows_pd_theory():
+    # A lone body held by a sampled PD loop: nothing moves elastically, so the automatic
+    # step used to be the record interval (0.5 s here), five samples per step: the loop's
+    # derivative gain then acts as a damper with kd h / m = 2 (the explicit limit) and the
+    # hold rings or diverges. The step is now capped at the 0.1 s sample interval, and the
+    # offset body returns as the continuous critically damped law x0 (1 + w t) e^(-w t)
+    # (w = 2 rad/s). Tolerance 0.06 x0: the zero-order hold delays the command by about
+    # half a sample (0.05 s), at most x0 w e^-1 x 0.05 s = 0.037 x0 off the closed form.
+    kp = 8.0
+    kd = 2 * math.sqrt(kp * MASS)
+    x0 = 1.0
+    sc = engine.parse_scene({
+        "materials": {"al": AL},
+        "bodies": [{"name": "chaser", "material": "al",
+                    "shape": {"type": "box", "size": [1.0, 0.8, 0.6]},
+                    "mass_properties": {"mass": MASS,
+                                        "inertia": [[INERTIA[0], 0, 0], [0, INERTIA[1], 0],
+                                                    [0, 0, INERTIA[2]]]},
+                    "motion": {"type": "free"}, "pose": {"position": [x0, 0.0, 0.0]}}],
+        "controllers": [{"name": "hold", "body": "chaser", "position": [0.0, 0.0, 0.0],
+                         "sample_interval": 0.1,
+                         "position_gains": {"proportional": kp, "derivative": kd}}],
+        "run": {"duration": 4.0, "record_interval": 0.5}})
+    sys = engine.build(sc)
+    assert sys.dt == pytest.approx(0.1) and "controller 'hold'" in sys.dt_limited_by
+    w = math.sqrt(kp / MASS)
+    for t in (0.5, 1.0, 1.5, 2.5, 4.0):
+        engine.run(sys, until=t)
+        expected = x0 * (1 + w * t) * math.exp(-w * t)
+        assert sys.bodies.pos[0][0] == pytest.approx(expected, abs=0.06 * x0)

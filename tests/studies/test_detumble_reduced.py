@@ -44,6 +44,27 @@ def test_reduced_scene_puts_the_footprint_where_the_tips_are():
     assert "patch_contacts" in system.stages and system.n_nodes == 0
 
 
+def test_per_bristle_law_keeps_each_bristles_friction_at_its_load():
+    # a law fitted on 2 bristles with a load-dependent friction (q = -0.5) put on the 85
+    # bristles of the preset: the element takes mu_eff at the whole patch's F_n, so the
+    # friction of the whole brush at a load F must be 85/2 times the law's at the 2
+    # bristles' share 2F/85 (closed form). Without the restated mu it is off by
+    # (85/2)^0.5 = 6.5: the 1 x 2 law's friction fell ~90 % short that way (q = -1)
+    from engine.model.reduced_law import friction_coefficient
+
+    law = json.loads(json.dumps(LAW))
+    law["parameters"]["q"] = -0.5
+    scene = detumble.reduced_scene(detumble.detumble_scene("detumble_upper_stage"), law)
+    chaser = next(b for b in scene["bodies"] if b["name"] == "chaser")
+    par = chaser["patches"][0]["law"]["parameters"]
+    p0 = law["parameters"]
+    for F in (0.5, 3.0, 40.0):
+        share = F * 2 / 85
+        whole = friction_coefficient(F, 0.1, par["mu"], par["q"], par["v_s"]) * F
+        per = friction_coefficient(share, 0.1, p0["mu"], p0["q"], p0["v_s"]) * share
+        assert whole == pytest.approx(85 / 2 * per, rel=1e-12)   # round-off only
+
+
 def test_study_detumble_reduced_with_a_dem_spot_check(tmp_path):
     law = tmp_path / "law.json"
     law.write_text(json.dumps(LAW))
