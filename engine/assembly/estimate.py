@@ -156,12 +156,17 @@ def stability_bound(scene: Scene) -> tuple[float, str]:
 def estimate_dt(scene: Scene) -> float:
     """The automatic timestep the build would choose, estimated from one bristle per brush
     (at most the build's; ``run.dt`` when the scene gives it)."""
+    from engine.assembly.timestep import controller_cap
+
     if scene.run.dt is not None:
         return float(scene.run.dt)
     bound, _ = stability_bound(scene)
     if not math.isfinite(bound):
-        return float(scene.run.record_interval)  # nothing moves elastically
-    return scene.run.dt_safety * bound
+        dt = float(scene.run.record_interval)  # nothing moves elastically
+    else:
+        dt = scene.run.dt_safety * bound
+    cap = controller_cap(scene.controllers)
+    return min(dt, cap[0]) if cap is not None else dt
 
 
 def _ceil(x: float) -> float:

@@ -248,18 +248,9 @@ def _timestep(scene: Scene, bristles: BristlePart, body_part: BodyPart, tables: 
     if N and (needs.bristle_body or needs.body_body):
         speed, fastest = max_body_speed(body_part.bodies, body_part.bodies.collide)
         body_speed = (speed, body_part.names[fastest] if fastest >= 0 else "")
-    dt, dt_stable, limited_by = choose_dt(sysinfo, scene.run, r_min, body_speed, warnings,
-                                          local_damping=scene.environment.local_damping)
-    # a controller samples every sample_interval (zero-order hold): an automatic step longer
-    # than that would hold its command over several samples, and its derivative gain acts
-    # like a damper the stability limit above does not see (a reduced-law detumble with a
-    # soft, lightly damped law took 1 s steps against a 10 Hz loop and went unstable)
-    if scene.run.dt is None and scene.controllers:
-        ctl = min(scene.controllers, key=lambda c: c.sample_interval)
-        if ctl.sample_interval < dt:
-            dt = float(ctl.sample_interval)
-            limited_by = f"sample interval of controller {ctl.name!r} (zero-order hold)"
-    return dt, dt_stable, limited_by
+    return choose_dt(sysinfo, scene.run, r_min, body_speed, warnings,
+                     local_damping=scene.environment.local_damping,
+                     controllers=scene.controllers)
 
 
 def build_flags(scene: Scene, bristles: BristlePart, bodies: Bodies, tables: Tables,

@@ -32,6 +32,7 @@ the smallest bristle radius) per step.
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -148,8 +149,23 @@ def automatic_dt(system_info: dict) -> tuple[float, str, float]:
 MAX_BODY_STEP_RATIO = 0.25   # body surface displacement per step / smallest bristle radius
 
 
+def controller_cap(controllers) -> Optional[tuple[float, str]]:
+    """The automatic timestep's cap from the scene's controllers: the shortest sample interval
+    and what to call it, or None without controllers. A controller holds its command between
+    samples (zero-order hold): a step longer than a sample would skip samples, and the loop's
+    derivative gain acts as a damper that no stability limit here sees (a reduced-law
+    detumble with a soft, lightly damped law took 1 s steps against a 10 Hz loop and went
+    unstable). The build (:func:`choose_dt`) and the estimate both apply it."""
+    if not controllers:
+        return None
+    ctl = min(controllers, key=lambda c: c.sample_interval)
+    return (float(ctl.sample_interval),
+            f"sample interval of controller {ctl.name!r} (zero-order hold)")
+
+
 def choose_dt(system_info: dict, run, r_min: float, body_speed=None,
-              warnings: list = None, local_damping: float = 0.0) -> tuple[float, float, str]:
+              warnings: list = None, local_damping: float = 0.0,
+              controllers=()) -> tuple[float, float, str]:
     """The run's timestep: ``(dt, dt_stable, limited_by)``.
 
     ``dt_stable`` is :func:`automatic_dt`'s stability limit. Without ``run.dt`` the step is
@@ -163,7 +179,8 @@ def choose_dt(system_info: dict, run, r_min: float, body_speed=None,
     record interval and the duration. With Cundall ``local_damping`` alpha > 0 the automatic
     dt is at most ``LOCAL_DAMPING_MARGIN / sqrt(1 + alpha)`` of ``dt_stable`` (the damped
     limit, see :data:`LOCAL_DAMPING_MARGIN`): 0.78 at alpha 0.5, 0.83 at 0.3, so only a
-    ``dt_safety`` above that is lowered."""
+    ``dt_safety`` above that is lowered. The automatic dt is at most the shortest sample
+    interval of ``controllers`` (:func:`controller_cap`)."""
     warnings = [] if warnings is None else warnings
     dt_stable, limited_by, _ = automatic_dt(system_info)
     if run.dt is None:
@@ -177,6 +194,9 @@ def choose_dt(system_info: dict, run, r_min: float, body_speed=None,
         if not math.isfinite(dt):
             dt = run.record_interval
             limited_by = "nothing moves elastically: dt = record_interval"
+        cap = controller_cap(controllers)
+        if cap is not None and cap[0] < dt:
+            dt, limited_by = cap
     else:
         dt = run.dt
         if dt > dt_stable:

@@ -288,6 +288,7 @@ def test_automatic_dt_is_at_most_the_sample_interval_and_the_hold_follows_pd_the
         "run": {"duration": 4.0, "record_interval": 0.5}})
     sys = engine.build(sc)
     assert sys.dt == pytest.approx(0.1) and "controller 'hold'" in sys.dt_limited_by
+    assert engine.estimate(sc).dt == sys.dt   # the estimate takes the same cap
     w = math.sqrt(kp / MASS)
     for t in (0.5, 1.0, 1.5, 2.5, 4.0):
         engine.run(sys, until=t)
