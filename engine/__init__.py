@@ -16,6 +16,8 @@ The public API is small::
     result = engine.run(system, output="run.h5", on_progress=print, cancel=event)
     with engine.open_result(result.path) as res:   # reader, also for files of killed runs
         t, f = res.time, res.series("brushes/brush/root_force")
+    snap = system.save_state()                     # the state only (engine.state.STATE_FIELDS)
+    system.restore_state(snap); child = system.branch()  # rerun, or branch sharing the model
 
 Errors: :class:`SceneError` (bad input: field, value, what is allowed),
 :class:`InstabilityError` (quantity, where, time, what to change), both
@@ -40,6 +42,7 @@ _EXPORTS = {
     "Scene": "model.spec", "SCHEMA_VERSION": "model.spec", "load_scene": "model.spec",
     "parse_scene": "model.spec", "save_scene": "model.spec",
     "build": "assembly.system", "System": "assembly.system",
+    "StateSnapshot": "assembly.system",
     "run": "stepping.loop", "RunResult": "stepping.loop", "Progress": "stepping.loop",
     "run_steps": "stepping.loop", "energies": "stepping.observables",
     "angular_momentum": "stepping.observables", "linear_momentum": "stepping.observables",
@@ -50,7 +53,7 @@ _EXPORTS = {
 }
 
 __all__ = ["Scene", "SCHEMA_VERSION", "load_scene", "parse_scene", "save_scene", "build",
-           "System", "run", "RunResult", "Progress", "open_result", "ResultFile",
+           "System", "StateSnapshot", "run", "RunResult", "Progress", "open_result", "ResultFile",
            "prescribe_motion", "estimate", "Cost", "energies", "angular_momentum",
            "linear_momentum", "run_steps", "MemoryObserver",
            "BrushStudioError", "SceneError", "InstabilityError"]

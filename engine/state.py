@@ -60,6 +60,40 @@ Mission = namedtuple("Mission", ["orbit", "ctl_index", "ctl_par", "ctl_state", "
 Patches = namedtuple("Patches", ["body", "par", "state", "pair", "start", "pts", "w", "hits",
                                  "scratch"])
 
+# ---- the state: what a run writes (MuJoCo's MjData); every other field is the model
+# (MjModel), which ``engine.run`` never writes, so a branch of a system shares it
+# (``System.save_state``/``restore_state``/``branch``). Keys are the ``System`` attributes
+# holding the bundles; tests/engine/test_state_fields.py checks both ways that a run writes
+# exactly these. The neighbour lists are state whole: a rebuild rewrites their entries and
+# their build positions (``Nodes.x_build``, ``Bodies.pos_build``/``q_build``), and a growth
+# replaces their arrays.
+STATE_FIELDS = {
+    "nodes": ("x", "v", "q", "w", "f", "t", "x_build"),
+    # f, ti, tj: the per-bond actions, written by the energy evaluation at a run's start
+    # (engine.stepping.loop._refresh_forces); mid and bound: each rebuild's segment bounds
+    "bonds": ("f", "ti", "tj", "energy", "diss", "bend", "mid", "bound"),
+    "roots": (),
+    # motion: a kinematic body released as free when its profile ends; cursor: the
+    # profile's current segment; scratch rows and the last evaluation's forces
+    "bodies": ("pos", "q", "v", "w", "L", "motion", "f", "tq", "cursor", "ft_bb", "scratch",
+               "scratch2", "pos_build", "q_build", "ft_mesh", "f_contact", "tq_contact"),
+    "pairs": PairList._fields,
+    "body_pairs": BodyList._fields,
+    "loads": ("amp",),
+    "tables": (),
+    "mission": ("ctl_state",),
+    "patches": ("state", "hits", "scratch"),
+}
+# the System's own state arrays: the accumulators (time, steps, energy books: ``ACC_*``), the
+# failure report of the step loop (written only when a run fails) and the stage times
+STATE_ARRAYS = ("acc", "err", "stage_time")
+# what ``engine.prescribe_motion`` changes between runs (a run never does): the kinematic
+# profiles (replaced arrays) and what a body does when its profile ends (written in place)
+PRESCRIBED_FIELDS = {
+    "bodies": ("seg_start", "t0", "t1", "p0", "p1", "v0", "v1", "wseg", "q0", "after_free"),
+}
+
+
 class Friction(IntEnum):
     """A contact kind's friction mode, ``Flags.friction_*`` (``engine.kernels.contact_law``
     applies it), as ``ContactNeeds`` (``engine.assembly.contacts``) decides it."""

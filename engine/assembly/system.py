@@ -13,6 +13,7 @@ flags and stages (here), and the neighbour lists (``engine.assembly.neighbours``
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Optional
@@ -32,9 +33,9 @@ from engine.model.layout import quat_to_matrix
 from engine.kernels.mesh_contact import initial_overlap
 from engine.model.spec import Scene
 from engine.state import (ACC_SIZE, ACC_STEPS, ACC_TIME, LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING,
-                    LIMIT_NODE_STEP, LIMIT_OVERLAP, LIMIT_SKIN, LIMITS_SIZE, STAGES, Bodies,
-                    BodyList, Bonds, Flags, Loads, Mission, Nodes, PairList, Roots, Tables,
-                    assembled_stages)
+                    LIMIT_NODE_STEP, LIMIT_OVERLAP, LIMIT_SKIN, LIMITS_SIZE, PRESCRIBED_FIELDS,
+                    STAGES, STATE_ARRAYS, STATE_FIELDS, Bodies, BodyList, Bonds, Flags, Loads,
+                    Mission, Nodes, PairList, Roots, Tables, assembled_stages)
 from engine.assembly.timestep import MAX_BODY_STEP_RATIO, choose_dt, equalizing_scales
 
 MAX_OVERLAP_RATIO = 0.5      # contact overlap / radius that counts as a blow-up
@@ -111,6 +112,104 @@ class System:
 
     def segment_label(self, s: int) -> str:
         return self.node_label(int(self.bonds.i[s])).replace(" node ", " segment ")
+
+    # ---- model and state (engine.state.STATE_FIELDS): snapshots and branches
+    def save_state(self) -> "StateSnapshot":
+        """A copy of this system's state (the arrays a run writes, the prescribed motions):
+        :meth:`restore_state` puts it back, so a study can run on from one state several
+        times. Costs a copy of the state arrays only; the model is not copied."""
+        bundles = {}
+        for name, fields in _state_fields():
+            bundle = getattr(self, name)
+            if bundle is not None:
+                bundles[name] = {f: getattr(bundle, f).copy() for f in fields}
+        return StateSnapshot(bundles=bundles,
+                             arrays={a: getattr(self, a).copy() for a in STATE_ARRAYS},
+                             prescribed_motions=[dict(m) for m in self.prescribed_motions])
+
+    def restore_state(self, snapshot: "StateSnapshot") -> None:
+        """Put back the state ``snapshot`` (:meth:`save_state` of this system or of a
+        :meth:`branch` of it) holds: a run then goes on exactly (bit for bit) as it went on
+        from the saved moment. Arrays are copied in place where they have the saved shape
+        (a neighbour list that grew since, or a profile that ``prescribe_motion`` replaced,
+        gets a copy of the saved one), so nothing is compiled again. The snapshot stays
+        valid: it can be restored again."""
+        fixed = [(n, f) for n, fields in STATE_FIELDS.items() if n not in _RESIZED
+                 for f in fields if n in snapshot.bundles]
+        if set(snapshot.bundles) != {n for n, _ in _state_fields() if getattr(self, n)
+                                     is not None} or any(
+                getattr(getattr(self, n), f).shape != snapshot.bundles[n][f].shape
+                for n, f in fixed):
+            raise ValueError("restore_state: the snapshot is of another system (its state "
+                             "arrays have other shapes)")
+        for name, saved in snapshot.bundles.items():
+            bundle = getattr(self, name)
+            replaced = {}
+            for f, a in saved.items():
+                mine = getattr(bundle, f)
+                if mine.shape == a.shape:
+                    mine[...] = a
+                else:
+                    replaced[f] = a.copy()
+            if replaced:
+                setattr(self, name, bundle._replace(**replaced))
+        for a, saved in snapshot.arrays.items():
+            getattr(self, a)[...] = saved
+        self.prescribed_motions = [dict(m) for m in snapshot.prescribed_motions]
+
+    def branch(self) -> "System":
+        """A new system at this system's state that shares its model arrays (never written
+        by a run) and owns copies of its state: running, restoring or prescribing motions
+        on the branch leaves this system as it is, and the reverse."""
+        child = dataclasses.replace(self, warnings=list(self.warnings),
+                                    prescribed_motions=[dict(m) for m in
+                                                        self.prescribed_motions])
+        for name, fields in _state_fields():
+            bundle = getattr(self, name)
+            if bundle is not None:
+                setattr(child, name, bundle._replace(
+                    **{f: getattr(bundle, f).copy() for f in fields}))
+        for a in STATE_ARRAYS:
+            setattr(child, a, getattr(self, a).copy())
+        return child
+
+
+# bundles whose arrays a system may replace by larger ones (a neighbour list's growth)
+_RESIZED = ("pairs", "body_pairs")
+
+
+def _state_fields():
+    """``(System attribute, fields)`` of every bundle field a snapshot holds: the state
+    (``engine.state.STATE_FIELDS``) and what ``prescribe_motion`` changes."""
+    for name in STATE_FIELDS.keys() | PRESCRIBED_FIELDS.keys():
+        fields = tuple(STATE_FIELDS.get(name, ())) + tuple(PRESCRIBED_FIELDS.get(name, ()))
+        if fields:
+            yield name, fields
+
+
+@dataclass(frozen=True)
+class StateSnapshot:
+    """A system's state at one moment (:meth:`System.save_state`): copies of the arrays a
+    run writes (``engine.state.STATE_FIELDS`` and ``STATE_ARRAYS``) and of the prescribed
+    motions (``PRESCRIBED_FIELDS``, ``System.prescribed_motions``)."""
+
+    bundles: dict             # System attribute -> {field: array}
+    arrays: dict              # "acc", "err", "stage_time" -> array
+    prescribed_motions: list
+
+    @property
+    def time(self) -> float:
+        return float(self.arrays["acc"][ACC_TIME])
+
+    @property
+    def steps(self) -> int:
+        return int(self.arrays["acc"][ACC_STEPS])
+
+    @property
+    def nbytes(self) -> int:
+        """The bytes of its arrays."""
+        return (sum(a.nbytes for fields in self.bundles.values() for a in fields.values())
+                + sum(a.nbytes for a in self.arrays.values()))
 
 
 # ----------------------------------------------------------------------------- build

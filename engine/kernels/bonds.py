@@ -32,7 +32,15 @@ from numba import njit, prange
 from .rotations import qmul, qrot, qrot_inv
 
 
-PARALLEL_MIN = 4096  # below this many items a loop runs serially: no thread-pool latency
+# Below PARALLEL_MIN items a loop runs serially: no thread-pool latency. So each parallel
+# kernel (nodes_kick_drift, nodes_kick, nodes_kick_drift_cw, bond_forces, bond_node_forces,
+# bristle_bristle_narrow, bristle_body_narrow) holds its loop twice, a ``prange`` and a
+# ``range`` over the same per-item function; numba cannot choose between them at run time in
+# one loop. Both are needed (benchmarks/prange_latency.py, a 3-column half kick, CPU us per
+# call, on the shared 2-core test machine): 16 items 1.0 serial / 2.5 prange with 1 thread,
+# 1.0 / 18.4 with 2 (the idle worker spins); 512 items 4.5 / 44 with 2; 4096 items 19 / 26;
+# 65536 items 194 / 232 (the serial loop of a big scene leaves the second core idle).
+PARALLEL_MIN = 4096
 NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 

@@ -51,7 +51,7 @@ def _clock():
 
 @njit(cache=True, parallel=True)
 def nodes_kick_drift(x, v, q, w, f, t, inv_mass, inv_inertia, dt):
-    if x.shape[0] >= PARALLEL_MIN:
+    if x.shape[0] >= PARALLEL_MIN:  # the twin loops: engine.kernels.bonds.PARALLEL_MIN
         for n in prange(x.shape[0]):
             _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt)
     else:
@@ -81,21 +81,22 @@ def _kick_drift(n, x, v, q, w, f, t, inv_mass, inv_inertia, dt):
 
 @njit(cache=True, parallel=True)
 def nodes_kick(v, w, f, t, inv_mass, inv_inertia, dt):
-    h = 0.5 * dt
-    if v.shape[0] >= PARALLEL_MIN:
+    if v.shape[0] >= PARALLEL_MIN:  # the twin loops: engine.kernels.bonds.PARALLEL_MIN
         for n in prange(v.shape[0]):
-            im = inv_mass[n]
-            ii = inv_inertia[n]
-            for a in range(3):
-                v[n, a] += h * f[n, a] * im
-                w[n, a] += h * t[n, a] * ii
+            _kick(n, v, w, f, t, inv_mass, inv_inertia, dt)
     else:
         for n in range(v.shape[0]):
-            im = inv_mass[n]
-            ii = inv_inertia[n]
-            for a in range(3):
-                v[n, a] += h * f[n, a] * im
-                w[n, a] += h * t[n, a] * ii
+            _kick(n, v, w, f, t, inv_mass, inv_inertia, dt)
+
+
+@njit(cache=True, inline="always")
+def _kick(n, v, w, f, t, inv_mass, inv_inertia, dt):
+    h = 0.5 * dt
+    im = inv_mass[n]
+    ii = inv_inertia[n]
+    for a in range(3):
+        v[n, a] += h * f[n, a] * im
+        w[n, a] += h * t[n, a] * ii
 
 
 @item_kernel
