@@ -84,8 +84,11 @@ def test_a_slow_warm_up_is_compile_not_stages(tiny_scene, monkeypatch):
     assert s["compile_s"] >= delay
     # wall = compile + recording + the stepping the stages share out; the stages hold none
     # of the delay (they would sum to more than 0.6 s with it: the tiny run steps for
-    # ~0.1 s), and the speed is the steps over the wall time less compile and recording
-    assert _stage_sum(s) == pytest.approx(s["wall_s"] - s["compile_s"], rel=0.02, abs=2e-3)
+    # ~0.1 s), and the speed is the steps over the wall time less compile and recording.
+    # 50 ms slack for the loop's own code between stage clocks, which a loaded machine can
+    # stretch by milliseconds (2 ms failed once in five with a compile running beside it);
+    # still a twelfth of the delay the stages must not hold
+    assert _stage_sum(s) == pytest.approx(s["wall_s"] - s["compile_s"], rel=0.02, abs=0.05)
     compute = s["wall_s"] - s["compile_s"] - s["stages"]["recording"]
     assert s["steps_per_s"] == pytest.approx(s["steps"] / compute, rel=1e-9)
 
@@ -108,4 +111,7 @@ def test_a_compile_while_recording_is_not_recording_time(tiny_scene, monkeypatch
     monkeypatch.setattr(run_module, "run_frame", compiling_frame)
     s = engine.run(system).summary
     assert s["compile_s"] >= 0.5 * compiling_frame.compile_wall  # as in the first test
-    assert _stage_sum(s) == pytest.approx(s["wall_s"] - s["compile_s"], rel=0.02, abs=2e-3)
+    # (slack: a quarter of the compile, which the stages would hold if it were recording
+    # time; a fixed 2 ms failed once in five on a loaded machine)
+    assert _stage_sum(s) == pytest.approx(s["wall_s"] - s["compile_s"], rel=0.02,
+                                          abs=0.25 * compiling_frame.compile_wall)
