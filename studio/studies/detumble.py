@@ -21,6 +21,12 @@ Outputs (``-o DIR``): ``detumble_summary.json`` (every run's numbers and paramet
 ``detumble_summary.csv``, ``omega.png`` (|w| against time, one line per run),
 ``outcomes.json``; ``runs/`` one result file per run. Every run is one Dask task
 (``studio.studies.runner.run_many``).
+
+``--fidelity reduced`` runs the brush as a patch with a fitted law (:func:`reduced_scene`):
+the law of ``--law``, or, without it, each brush design's own (:func:`fit_laws`: ``study
+reduce`` with its defaults into ``laws/<design id>/``, reused by a re-run), and beside each
+scenario a DEM spot check of its first ``--spot-check-s`` seconds, compared in two windows
+(:func:`spot_check`: the whole of it, and after the first touch).
 """
 from __future__ import annotations
 
