@@ -27,6 +27,7 @@ def _tiny(monkeypatch):
                         lambda *a: full(*a).model_copy(update=TINY))
 
 
+@pytest.mark.slow   # 8 DEM reduce runs and 2 detumble runs (test_runs_share_a_law_per_...)
 def test_one_command_fits_the_law_uses_it_and_reuses_it(tmp_path, monkeypatch, capsys):
     _tiny(monkeypatch)
     out = tmp_path / "study"
