@@ -2,7 +2,8 @@
 
 Reads the folder of ``brush-studio study detumble --fidelity reduced --spot-check-s T``
 (one scenario: its reduced run and its ``_dem_spot`` run) and prints, for each window
-(default 0-3 s, 0-T and 2 s-T: from 2 s on, after the straight bristles' first touch), the
+(default 0-3 s, 0-T and from the DEM brush's first contact plus the study's settle time
+``detumble.SETTLE_S`` to T: the study's own after-touch window), the
 target's spin change along its axis, the peak and mean contact force on it (|F| and the
 normal part along the approach axis x), the mean tangential force (along y) and the peak
 and mean contact torque about its axis, DEM, reduced and the relative error. Both runs'
@@ -51,7 +52,13 @@ def main(argv=None) -> int:
     dem, red = read_detumble(dem_h5), read_detumble(red_h5)
     t_end = float(np.asarray(dem["time"])[-1])
     window = round(t_end - 0.1, 2)               # study detumble runs 0.1 s past the window
-    for a, b in ((0.0, min(3.0, window)), (0.0, window), (2.0, window)):
+    from studio.studies.detumble import SETTLE_S, window_figures
+
+    touch = window_figures(dem, window)["first_contact"]
+    windows = [(0.0, min(3.0, window)), (0.0, window)]
+    if touch is not None and touch + SETTLE_S < window:
+        windows.append((touch + SETTLE_S, window))
+    for a, b in windows:
         fd, fr = figures(dem, a, b), figures(red, a, b)
         print(f"window {a:g}-{b:g} s")
         for k in fd:

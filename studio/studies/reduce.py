@@ -50,10 +50,12 @@ PLATE = "plate"
 SLIDE_AXES = {"x": (1.0, 0.0), "y": (0.0, 1.0)}
 
 
-def _design(preset: str, rows=None, columns=None, n_nodes=None, slide_axis="y") -> dict:
+def _design(preset: str, rows=None, columns=None, n_nodes=None, slide_axis="y",
+            length_mm=None, diameter_mm=None) -> dict:
     """The brush (fixed base at the origin, bristles along +z), materials, contact pairs
     and the target material of ``preset``; the slide axis in the base plane (``x``: along
-    the brush's columns, ``y``: across its rows)."""
+    the brush's columns, ``y``: across its rows). ``length_mm`` and ``diameter_mm`` (root;
+    the tip keeps its ratio) change the bristles as ``study detumble``'s design sweep does."""
     from studio import presets
 
     scene = json.loads(presets.load_preset_or_file(preset).to_json())
@@ -65,6 +67,12 @@ def _design(preset: str, rows=None, columns=None, n_nodes=None, slide_axis="y") 
     for key, value in (("rows", rows), ("columns", columns), ("n_nodes", n_nodes)):
         if value is not None:
             brush[key] = int(value)
+    if length_mm is not None:
+        brush["bristle_length"] = float(length_mm) * 1e-3
+    if diameter_mm is not None:
+        ratio = brush["tip_radius"] / brush["root_radius"]
+        brush["root_radius"] = 0.5 * float(diameter_mm) * 1e-3
+        brush["tip_radius"] = brush["root_radius"] * ratio
     bodies = [b for b in scene["bodies"] if b.get("collide", True)]
     target_material = next((b["material"] for b in bodies if b["name"] == "target"),
                            bodies[0]["material"] if bodies else brush["material"])
@@ -429,6 +437,17 @@ def build_specs(options: "Options", design: dict):
     return specs
 
 
+def fit_digest(options: "Options", design: dict) -> str:
+    """A hash of what a law is fitted from: every run's digest (scene, parameters, task) and
+    ``--fit-from``. A law file that carries it (``law.json``'s ``fit_digest``) was fitted
+    from these runs: ``study detumble`` reuses it rather than fitting again."""
+    import hashlib
+
+    text = json.dumps({"runs": sorted(s.digest() for s in build_specs(options, design)),
+                       "fit_from": options.fit_from}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def fit_law(outcomes, design: dict, fit_from: float = 0.0) -> dict:
     """The law dict (engine.model.reduced_law) fitted to the press and slide outcomes'
     samples with an interference of at least ``fit_from`` (m)."""
@@ -530,6 +549,19 @@ class Options(StudyOptions):
                                    description="nodes per bristle (default: the preset's)",
                                    json_schema_extra={"flags": ["--nodes", "--n-nodes"],
                                                       "metavar": "N"})
+    length: Optional[float] = Field(None, gt=0, description="bristle length (default: the "
+                                                            "preset's)",
+                                    json_schema_extra={"metavar": "MM", "unit": "mm"})
+    diameter: Optional[float] = Field(None, gt=0,
+                                      description="bristle root diameter, the tip keeping its "
+                                                  "ratio (default: the preset's)",
+                                      json_schema_extra={"metavar": "MM", "unit": "mm"})
+
+
+def design_of(options: Options) -> dict:
+    """The brush design ``options`` fit a law for (:func:`_design`)."""
+    return _design(options.preset, options.rows, options.columns, options.n_nodes,
+                   options.slide_axis, options.length, options.diameter)
 
 
 def add_parser(study_subparsers) -> None:
@@ -555,8 +587,7 @@ def _run_study(options: Options, out: Path) -> int:
     problem = None
     design = None
     try:
-        design = _design(options.preset, options.rows, options.columns, options.n_nodes,
-                         options.slide_axis)
+        design = design_of(options)
         build_specs(options, design)      # checks the number lists
     except (ValueError, KeyError, OSError) as exc:
         problem = str(exc)
@@ -583,6 +614,7 @@ def _run_study(options: Options, out: Path) -> int:
                **check_sliding_press(law, o.summary)}
               for o in outcomes if o.params["kind"] == "check"]
     law["validation_sliding"] = [{"run_id": c["run_id"], **c["errors"]} for c in checks]
+    law["fit_digest"] = fit_digest(options, design)
     save_law(out / "law.json", law)
     write_json_atomic(out / "validation.json", {"impacts": rows, "sliding": checks})
     write_json_atomic(out / "reduce_summary.json",

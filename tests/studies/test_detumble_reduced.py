@@ -93,6 +93,9 @@ def test_study_detumble_reduced_with_a_dem_spot_check(tmp_path):
     assert (out / "omega.png").stat().st_size > 1000
 
 
-def test_reduced_fidelity_needs_a_law(tmp_path, capsys):
-    assert main(["study", "detumble", "-o", str(tmp_path), "--fidelity", "reduced"]) == 2
+def test_reduced_fidelity_refuses_a_law_file_it_cannot_read(tmp_path, capsys):
+    # (without --law the study fits one: tests/studies/test_detumble_onecmd.py)
+    assert main(["study", "detumble", "-o", str(tmp_path / "o"), "--fidelity", "reduced",
+                 "--law", str(tmp_path / "missing.json")]) == 2
     assert "--law" in capsys.readouterr().err
+    assert not (tmp_path / "o" / "laws").exists()
