@@ -274,18 +274,9 @@ def test_automatic_dt_is_at_most_the_sample_interval_and_the_hold_follows_pd_the
     kp = 8.0
     kd = 2 * math.sqrt(kp * MASS)
     x0 = 1.0
-    sc = engine.parse_scene({
-        "materials": {"al": AL},
-        "bodies": [{"name": "chaser", "material": "al",
-                    "shape": {"type": "box", "size": [1.0, 0.8, 0.6]},
-                    "mass_properties": {"mass": MASS,
-                                        "inertia": [[INERTIA[0], 0, 0], [0, INERTIA[1], 0],
-                                                    [0, 0, INERTIA[2]]]},
-                    "motion": {"type": "free"}, "pose": {"position": [x0, 0.0, 0.0]}}],
-        "controllers": [{"name": "hold", "body": "chaser", "position": [0.0, 0.0, 0.0],
-                         "sample_interval": 0.1,
-                         "position_gains": {"proportional": kp, "derivative": kd}}],
-        "run": {"duration": 4.0, "record_interval": 0.5}})
+    sc = _scene({"position": [0.0, 0.0, 0.0], "sample_interval": 0.1,
+                 "position_gains": {"proportional": kp, "derivative": kd}},
+                duration=4.0, dt=None, position=(x0, 0.0, 0.0))   # (dt: automatic)
     sys = engine.build(sc)
     assert sys.dt == pytest.approx(0.1) and "controller 'hold'" in sys.dt_limited_by
     assert engine.estimate(sc).dt == sys.dt   # the estimate takes the same cap
