@@ -166,35 +166,45 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
 
     scene = presets.load_preset_or_file(name)
     rows = str(scene.brushes[0].rows)
+    # a design with edits asks before they are discarded: its dialog's button (a late
+    # attempt may find a dialog an earlier one opened, or two of them: any loads `name`)
+    discard = page.get_by_role("button", name=f"Discard edits and load {name}",
+                               exact=True)
     for attempt in range(3):
-        box = page.get_by_label("preset", exact=True).first
-        if box.input_value() != name:
-            box.click(force=True)
-            try:
-                # 30 s: in a cold CI run with two xdist workers the page once stayed busy
-                # (software WebGL) through three 10 s tries
-                page.get_by_role("option", name=name, exact=True).click(force=True,
-                                                                         timeout=30_000)
-            except Exception:  # (a busy page missed the click that opens the list)
-                if attempt == 2:
-                    raise
-                page.keyboard.press("Escape")
-                continue
-            page.wait_for_timeout(300)
         loads = studio.state()["loads"]
-        click(page, "Load preset")
-        # a design with edits asks before they are discarded: confirm in its dialog
-        discard = page.get_by_role("button", name=f"Discard edits and load {name}",
-                                   exact=True)
-        deadline = time.monotonic() + 10
-        st = studio.state()
+        if discard.count():
+            discard.first.evaluate("b => b.click()")
+        else:
+            box = page.get_by_label("preset", exact=True).first
+            if box.input_value() != name:
+                box.click(force=True)
+                try:
+                    # 30 s: in a cold CI run with two xdist workers the page once stayed
+                    # busy (software WebGL) through three 10 s tries
+                    page.get_by_role("option", name=name, exact=True).click(force=True,
+                                                                             timeout=30_000)
+                except Exception:  # (a busy page missed the click that opens the list)
+                    ARTIFACTS.mkdir(exist_ok=True)
+                    try:
+                        page.screenshot(path=str(ARTIFACTS / f"open_preset-{name}-"
+                                                 f"{attempt}.png"), timeout=30_000)
+                    except Exception:
+                        pass
+                    if attempt == 2:
+                        raise
+                    page.keyboard.press("Escape")
+                    continue
+                page.wait_for_timeout(300)
+            click(page, "Load preset")
         # wait for the load itself (``loads`` grows when it has finished): a tab that shows
         # the preset already (the studio opens on the demo) looked loaded before the click
         # was handled, and the load's refresh then overwrote a value typed after it
+        deadline = time.monotonic() + 30
+        st = studio.state()
         while not (st["loads"] > loads and _loaded(st, scene.name, rows)) and \
                 time.monotonic() < deadline:
             if discard.count():
-                discard.evaluate("b => b.click()")
+                discard.first.evaluate("b => b.click()")
             time.sleep(0.2)
             st = studio.state()
         if st["loads"] > loads and _loaded(st, scene.name, rows):
