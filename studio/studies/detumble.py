@@ -140,13 +140,10 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
     if diameter_mm is not None:
         ratio = brush["tip_radius"] / brush["root_radius"]
         shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]  # a sphere's
+    from .reduce import resize_bristles
+
     for b in mounted:
-        if length_mm is not None:
-            b["bristle_length"] = length_mm * 1e-3
-        if diameter_mm is not None:
-            ratio = b["tip_radius"] / b["root_radius"]
-            b["root_radius"] = 0.5 * diameter_mm * 1e-3
-            b["tip_radius"] = b["root_radius"] * ratio
+        resize_bristles(b, length_mm, diameter_mm)
     ctl["position"] = list(offset_hold + shift * axis + offset * e)
     chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
                                       + shift * axis + offset * e)
@@ -219,10 +216,9 @@ def reduced_scene(scene: dict, law: dict) -> dict:
         # s = n_law / n_full, i.e. mu s^q at the whole patch's load
         par = law["parameters"]
         share = n_law / n_full
-        par["mu"] = float(par["mu"]) * share ** float(par["q"])
         law["patch"]["size_restated"]["mu"] = {
-            "from": float(par["mu"]) / share ** float(par["q"]),
-            "why": f"mu_eff per bristle: mu x ({n_law}/{n_full})^q"}
+            "from": float(par["mu"]), "why": f"mu_eff per bristle: mu x ({n_law}/{n_full})^q"}
+        par["mu"] = float(par["mu"]) * share ** float(par["q"])
     tip = brush["bristle_length"] + brush["tip_radius"]
     patches = []
     for i, br in enumerate(mounted):
@@ -429,7 +425,7 @@ def build_specs(options: "Options", grid: dict):
                   "threshold": options.threshold, "isp": options.isp,
                   "drift_time": options.drift_time, "sn_curve": options.sn_curve,
                   "stress_limit": grid["stress_limit"]}
-        run_id = "_".join(f"{k}{'p' if v is None else f'{v:g}'}" for k, v in (
+        run_id = "_".join(_tag(k, v) for k, v in (
             ("size", size), ("spin", spin), ("len", length), ("dia", diameter)))
         run_id += "".join(f"_{k}{v:g}" for k, v in (
             ("tilt", tilt), ("tumble", tumble), ("off", off)) if v)
@@ -467,6 +463,12 @@ def build_specs(options: "Options", grid: dict):
     return specs
 
 
+def _tag(key: str, value: Optional[float]) -> str:
+    """``len20`` for a swept value, ``lenp`` for the preset's own (None): run and design
+    ids."""
+    return f"{key}{'p' if value is None else f'{value:g}'}"
+
+
 LAWS_DIR = "laws"   # OUT/laws/<design id>/: study reduce's outputs for each brush design
 
 
@@ -474,8 +476,7 @@ def design_id(options: "Options", length: Optional[float], diameter: Optional[fl
     """The name of a brush design of the sweep (``len20_diap``: 'p' for the preset's value;
     ``--rows``, ``--columns`` and ``--nodes`` appended when given): the runs of one design
     share one fitted law, whatever the target's size, spin and the tolerance sweeps."""
-    name = "_".join(f"{k}{'p' if v is None else f'{v:g}'}"
-                    for k, v in (("len", length), ("dia", diameter)))
+    name = "_".join(_tag(k, v) for k, v in (("len", length), ("dia", diameter)))
     return name + "".join(f"_{k}{v}" for k, v in (
         ("rows", options.rows), ("cols", options.columns), ("nodes", options.n_nodes))
         if v is not None)

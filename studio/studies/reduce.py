@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, Optional
 
@@ -67,12 +66,7 @@ def _design(preset: str, rows=None, columns=None, n_nodes=None, slide_axis="y",
     for key, value in (("rows", rows), ("columns", columns), ("n_nodes", n_nodes)):
         if value is not None:
             brush[key] = int(value)
-    if length_mm is not None:
-        brush["bristle_length"] = float(length_mm) * 1e-3
-    if diameter_mm is not None:
-        ratio = brush["tip_radius"] / brush["root_radius"]
-        brush["root_radius"] = 0.5 * float(diameter_mm) * 1e-3
-        brush["tip_radius"] = brush["root_radius"] * ratio
+    resize_bristles(brush, length_mm, diameter_mm)
     bodies = [b for b in scene["bodies"] if b.get("collide", True)]
     target_material = next((b["material"] for b in bodies if b["name"] == "target"),
                            bodies[0]["material"] if bodies else brush["material"])
@@ -120,6 +114,18 @@ def detumble_contact(scene: dict) -> dict:
             "slip_direction": [float(v_base[0] / speed), float(v_base[1] / speed)]
             if speed > 0 else [0.0, 0.0],
             "interference": depth}
+
+
+def resize_bristles(brush: dict, length_mm=None, diameter_mm=None) -> None:
+    """A brush design's bristles ``length_mm`` long with a ``diameter_mm`` root (the tip
+    keeping its ratio to the root), in place on the brush dict; None keeps the value. The
+    one rule ``study reduce`` and ``study detumble``'s design sweep share."""
+    if length_mm is not None:
+        brush["bristle_length"] = float(length_mm) * 1e-3
+    if diameter_mm is not None:
+        ratio = brush["tip_radius"] / brush["root_radius"]
+        brush["root_radius"] = 0.5 * float(diameter_mm) * 1e-3
+        brush["tip_radius"] = brush["root_radius"] * ratio
 
 
 def patch_size(brush: dict) -> tuple[float, float]:
@@ -624,7 +630,7 @@ def _run_study(options: Options, out: Path) -> int:
     print("Reduced law (95 % intervals):")
     for k in ("k", "p", "c", "eta", "mu", "q", "v_s"):
         print(f"  {k:4s} = {par[k]:.4g}  [{ci[k]['ci95'][0]:.4g}, {ci[k]['ci95'][1]:.4g}]")
-    print(f"Held-out impacts (relative errors, reduced vs DEM):")
+    print("Held-out impacts (relative errors, reduced vs DEM):")
     print(f"  {'run':34s} {'peak Fn':>8s} {'dv_n':>7s} {'dw':>7s} {'E diss':>7s} "
           f"{'F(t) rms':>8s}")
     for r in rows:
