@@ -151,6 +151,19 @@ def _loaded(state: dict, scene_name: str, rows: str) -> bool:
         str(state["scene"]["brushes"][0]["rows"]) == rows
 
 
+def _close_dialogs(page) -> None:
+    """Answer "Keep editing" in every discard-edits dialog still open: one an earlier
+    attempt or test left (a second Load preset click on a busy page opens a second dialog)
+    covers the panel, and the Presets dropdown under it never opens (seen in a cold CI
+    run's screenshot)."""
+    keep = page.get_by_role("button", name="Keep editing", exact=True)
+    for _ in range(5):
+        if not keep.count():
+            return
+        keep.first.evaluate("b => b.click()")
+        page.wait_for_timeout(500)
+
+
 def open_preset(studio: StudioProcess, name: str, page=None) -> None:
     """Open a preset in the page's own session (each tab has its own design): choose it in
     the Presets dropdown and press Load preset, as a user would, then wait until the page
@@ -172,6 +185,8 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
                                exact=True)
     for attempt in range(3):
         loads = studio.state()["loads"]
+        if not discard.count():
+            _close_dialogs(page)   # (a stale dialog over the panel eats the dropdown's click)
         if discard.count():
             discard.first.evaluate("b => b.click()")
         else:
@@ -212,6 +227,7 @@ def open_preset(studio: StudioProcess, name: str, page=None) -> None:
         if attempt == 2:
             raise AssertionError(f"preset {name} not loaded; last state: "
                                  f"{ {k: v for k, v in st.items() if k != 'scene'} }")
+    _close_dialogs(page)
     deadline = time.monotonic() + 30
     while page.get_by_label("rows", exact=True).input_value() != rows:
         assert time.monotonic() < deadline, f"the page never showed {rows} rows"
