@@ -78,7 +78,50 @@ def _scale_shape(shape: dict, s: float) -> dict:
     return shape
 
 
-def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] = None,
+def _chaser_parts(scene: dict, where: str):
+    """(target, chaser, controller, brushes mounted on the chaser) of a detumble scene dict;
+    SceneError when it is not one."""
+    bodies = {b["name"]: b for b in scene["bodies"]}
+    ctl = next((c for c in scene["controllers"] if c["name"] == CONTROLLER), None)
+    mounted = [b for b in scene["brushes"] if b.get("mount") == CHASER]
+    if TARGET not in bodies or CHASER not in bodies or ctl is None or not mounted:
+        from engine import SceneError
+        raise SceneError.single("(scene)", where,
+                                f"not a detumble scene: it needs bodies {TARGET!r} and "
+                                f"{CHASER!r}, a brush mounted on {CHASER!r} and the "
+                                f"controller {CONTROLLER!r}")
+    return bodies[TARGET], bodies[CHASER], ctl, mounted
+
+
+def tip_reach(scene: dict) -> float:
+    """How far the chaser's first brush reaches towards the target from the chaser, along
+    the held offset's axis, m: the bristles' length projected on that axis plus the tip's
+    radius (a sphere's). A design that changes it moves the held offset by the difference
+    (:func:`keep_interference`), so the held tip interference stays the preset's."""
+    from engine.model.layout import quat_to_matrix
+
+    _, chaser, ctl, mounted = _chaser_parts(scene, "(scene)")
+    brush = mounted[0]
+    axis = np.asarray(ctl["position"], float)
+    axis = axis / np.linalg.norm(axis)
+    along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
+        @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
+    return brush["bristle_length"] * abs(float(along @ axis)) + brush["tip_radius"]
+
+
+def keep_interference(scene: dict, reach_before: float) -> None:
+    """Move the chaser's held offset and start (in place) by the change of
+    :func:`tip_reach` from ``reach_before``: a longer bristle is held farther off."""
+    _, chaser, ctl, _ = _chaser_parts(scene, "(scene)")
+    hold = np.asarray(ctl["position"], float)
+    axis = hold / np.linalg.norm(hold)
+    shift = tip_reach(scene) - reach_before
+    ctl["position"] = list(hold + shift * axis)
+    chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
+                                      + shift * axis)
+
+
+def detumble_scene(preset, *, size: float = 1.0, spin_deg: Optional[float] = None,
                    length_mm: Optional[float] = None, diameter_mm: Optional[float] = None,
                    n_nodes: Optional[int] = None, rows: Optional[int] = None,
                    columns: Optional[int] = None, duration: Optional[float] = None,
@@ -88,20 +131,15 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
     at ``spin_deg`` deg/s about its preset axis, bristles ``length_mm`` long with a
     ``diameter_mm`` root; ``n_nodes``, ``rows`` / ``columns``, ``duration`` and
     ``record_interval`` override the preset's resolution (a reduced run)."""
-    from studio import presets
+    if isinstance(preset, dict):
+        scene = json.loads(json.dumps(preset))
+        preset = scene.get("name", "scene")
+    else:
+        from studio import presets
 
-    scene = json.loads(presets.load_preset_or_file(preset).to_json())
-    bodies = {b["name"]: b for b in scene["bodies"]}
-    ctl = next((c for c in scene["controllers"] if c["name"] == CONTROLLER), None)
-    mounted = [b for b in scene["brushes"] if b.get("mount") == CHASER]
-    brush = mounted[0] if mounted else None   # the presets' brushes share one design
-    if TARGET not in bodies or CHASER not in bodies or ctl is None or brush is None:
-        from engine import SceneError
-        raise SceneError.single("(scene)", preset,
-                                f"not a detumble scene: it needs bodies {TARGET!r} and "
-                                f"{CHASER!r}, a brush mounted on {CHASER!r} and the "
-                                f"controller {CONTROLLER!r}")
-    target, chaser = bodies[TARGET], bodies[CHASER]
+        scene = json.loads(presets.load_preset_or_file(preset).to_json())
+    target, chaser, ctl, mounted = _chaser_parts(scene, preset)
+    brush = mounted[0]   # the presets' brushes share one design
     offset_hold = np.asarray(ctl["position"], float)
     axis = offset_hold / np.linalg.norm(offset_hold)
     shift = 0.0
@@ -131,19 +169,12 @@ def detumble_scene(preset: str, *, size: float = 1.0, spin_deg: Optional[float] 
         w_new = Rotation.from_rotvec(math.radians(tilt_deg) * e).apply(w_now) + tumble * wn * e
         target["angular_velocity"] = list(w_new / np.linalg.norm(w_new) * wn)
     # a longer bristle reaches farther along the approach axis by its projection on it
-    from engine.model.layout import quat_to_matrix
-    along = quat_to_matrix(np.asarray(chaser["pose"].get("orientation", (1, 0, 0, 0)), float)) \
-        @ quat_to_matrix(np.asarray(brush["base"]["orientation"], float)) @ [0.0, 0.0, 1.0]
-    cos_tilt = abs(float(along @ axis))
-    if length_mm is not None:
-        shift += (length_mm * 1e-3 - brush["bristle_length"]) * cos_tilt
-    if diameter_mm is not None:
-        ratio = brush["tip_radius"] / brush["root_radius"]
-        shift += 0.5 * diameter_mm * 1e-3 * ratio - brush["tip_radius"]  # a sphere's
     from .reduce import resize_bristles
 
+    reach = tip_reach(scene)
     for b in mounted:
         resize_bristles(b, length_mm, diameter_mm)
+    shift += tip_reach(scene) - reach
     ctl["position"] = list(offset_hold + shift * axis + offset * e)
     chaser["pose"]["position"] = list(np.asarray(chaser["pose"]["position"], float)
                                       + shift * axis + offset * e)

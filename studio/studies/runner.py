@@ -129,6 +129,7 @@ def execute_spec(spec: dict, out_dir: str, *, on_progress: Optional[Callable] = 
     run_id = spec["run_id"]
     h5, js = run_paths(Path(out_dir), run_id)
     h5.parent.mkdir(parents=True, exist_ok=True)
+    outer = _PROGRESS   # a task that runs specs of its own (a search run fitting its law)
     _PROGRESS = _ProgressFile(progress_path(Path(out_dir), run_id), on_progress)
     status, summary, error = "failed", {}, None
     interrupted = False
@@ -156,7 +157,7 @@ def execute_spec(spec: dict, out_dir: str, *, on_progress: Optional[Callable] = 
     if error is not None:
         error = " ".join(error.split())  # one line: it is printed beside the parameters
     _PROGRESS.remove()
-    _PROGRESS = None
+    _PROGRESS = outer
     outcome = {"run_id": run_id, "params": spec["params"], "status": status,
                "summary": summary, "error": error, "h5": str(h5), "wall_s": wall,
                "skipped": False}

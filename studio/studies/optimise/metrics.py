@@ -92,23 +92,28 @@ REST_FRACTION = 0.05
 QUIET_AFTER_CONTACT = 0.01  # s without contact force that ends the first contact's run
 
 
-def parse_objective(text: str) -> tuple[str, str]:
-    """``METRIC[:AGG]`` -> (metric, aggregate)."""
+def parse_objective(text: str, metrics: Optional[dict] = None,
+                    where: str = "") -> tuple[str, str]:
+    """``METRIC[:AGG]`` -> (metric, aggregate); ``metrics``: the known ones (default
+    :data:`METRICS`, the DEM runs'), ``where`` says whose in the error."""
+    metrics = METRICS if metrics is None else metrics
     metric, _, agg = str(text).strip().partition(":")
     agg = agg or "worst"
-    if metric not in METRICS:
-        raise StudyInputError(f"objective {text!r}: unknown metric {metric!r}; metrics: "
-                              f"{sorted(METRICS)}")
+    if metric not in metrics:
+        raise StudyInputError(f"objective {text!r}: unknown metric {metric!r}"
+                              f"{' with ' + where if where else ''}; metrics: "
+                              f"{sorted(metrics)}")
     _check_aggregate(text, agg)
     return metric, agg
 
 
-def parse_constraint(text: str) -> tuple[str, str, float]:
+def parse_constraint(text: str, metrics: Optional[dict] = None,
+                     where: str = "") -> tuple[str, str, float]:
     """``METRIC[:AGG]<=LIMIT`` -> (metric, aggregate, limit)."""
     left, sep, limit = str(text).partition("<=")
     if not sep:
         raise StudyInputError(f"constraint {text!r}: expected METRIC[:AGG]<=LIMIT")
-    metric, agg = parse_objective(left)
+    metric, agg = parse_objective(left, metrics, where)
     try:
         value = float(limit)
     except ValueError:

@@ -78,10 +78,42 @@ class Options(StudyOptions):
     sampler: Literal["auto", "tpe", "nsga2", "random"] = Field(
         "auto", description="Optuna sampler: auto = TPE for one objective, NSGA-II for "
                             "several")
-    nodes: int = Field(3, ge=2, le=64, description="nodes per bristle of the search runs")
-    duration_s: float = Field(0.4, gt=0, description="simulated time per scenario at most "
-                              "(a run ends when its first contact is over, unless rest_time "
-                              "is asked for)", json_schema_extra={"unit": "s"})
+    nodes: Optional[int] = Field(None, ge=2, le=64, description="nodes per bristle of the "
+                                 "search runs (default 3; --fidelity reduced: the preset's, "
+                                 "for the law fits)")
+    duration_s: Optional[float] = Field(
+        None, gt=0, description="simulated time per scenario at most (default 0.4 s: a run "
+                                "ends when its first contact is over, unless rest_time is "
+                                "asked for; --fidelity reduced: 3600 s, or until detumbled)",
+        json_schema_extra={"unit": "s"})
+    fidelity: Literal["dem", "reduced"] = Field(
+        "dem", description="dem: the spin rig's short DEM runs (--cubes-mm ...); reduced: "
+                           "hour-long detumbles of a detumble preset (--preset "
+                           "detumble_upper_stage) over --sizes, --spins-deg, --tilts-deg, "
+                           "--tumbles, --offsets-m, each design's brush replaced by a law "
+                           "fitted by study reduce into OUTPUT/laws/DESIGN/ (docs/design.md)")
+    sizes: list[float] = Field(default_factory=lambda: [1.0],
+                               description="--fidelity reduced: target scale factors of the "
+                                           "detumble preset")
+    spins_deg: list[float] = Field(default_factory=list,
+                                   description="--fidelity reduced: initial spin rates "
+                                               "(default: the preset's)",
+                                   json_schema_extra={"unit": "deg/s"})
+    tilts_deg: list[float] = Field(default_factory=lambda: [0.0],
+                                   description="--fidelity reduced: spin-axis tilts toward "
+                                               "the brush normal",
+                                   json_schema_extra={"unit": "deg"})
+    tumbles: list[float] = Field(default_factory=lambda: [0.0],
+                                 description="--fidelity reduced: a transverse spin "
+                                             "component, a fraction of |omega| (tumbling)")
+    offsets_m: list[float] = Field(default_factory=lambda: [0.0],
+                                   description="--fidelity reduced: the hold point moved "
+                                               "across the surface's motion",
+                                   json_schema_extra={"unit": "m"})
+    spot_check_s: float = Field(5.0, ge=0, description="--fidelity reduced: the winner's "
+                                "DEM spot check, the first seconds of each scenario with "
+                                "the DEM brush against its reduced run (0: none)",
+                                json_schema_extra={"unit": "s"})
     refine: bool = Field(True, description="re-run the winner with twice the nodes and half "
                                            "the time step and report whether it holds")
     search_seed: int = Field(0, ge=0, description="seed of the Optuna sampler")

@@ -11,7 +11,6 @@ from typing import Optional
 import numpy as np
 
 from .groups import groups
-from .metrics import RUN_KEYS
 from .search import Problem, counted, design_key
 
 
@@ -43,11 +42,11 @@ def write_trials_csv(path: Path, study, problem: Problem) -> int:
     var_names = [v.path for v in problem.variables]
     obj_names = [f"objective.{m}:{a}" for m, a in problem.objectives]
     con_names = [f"constraint.{m}:{a}<={v:g}" for m, a, v in problem.constraints]
-    metric_keys = RUN_KEYS
+    metric_keys = problem.run_keys
     scen = {s.scenario_id: s for s in problem.scenarios}
+    columns = type(problem.scenarios[0]).COLUMNS
     header = (["trial", "state", "feasible", "design_key"] + var_names + obj_names + con_names
-              + ["scenario", "cube_mm", "spin_rate", "config", "tumbling", "e_factor",
-                 "friction_factor", "status"] + list(metric_keys)
+              + ["scenario"] + list(columns) + ["status"] + list(metric_keys)
               + ["stiffness_group", "length_ratio", "mass_ratio", "error"])
     n = 0
     with open(path, "w", newline="") as fh:
@@ -60,14 +59,13 @@ def write_trials_csv(path: Path, study, problem: Problem) -> int:
             for row in t.user_attrs.get("scenarios", []):
                 s = scen.get(row.get("scenario"))
                 g = groups(problem.scene(design, s)) if s is not None and None not in \
-                    design.values() else {}
+                    design.values() and not problem.reduced else {}
                 w.writerow([t.number, t.state.name, feasible(t) and t.values is not None,
                             t.user_attrs.get("design_key", "")]
                            + [design[p] for p in var_names] + values + list(cons)
-                           + [row.get("scenario"), s.cube_mm if s else None,
-                              s.spin_rate if s else None, s.config if s else None,
-                              s.tumbling if s else None, s.e_factor if s else None,
-                              s.friction_factor if s else None, row.get("status")]
+                           + [row.get("scenario")]
+                           + [getattr(s, c) if s else None for c in columns]
+                           + [row.get("status")]
                            + [row.get(k) for k in metric_keys]
                            + [g.get("stiffness_group"), g.get("length_ratio"),
                               g.get("mass_ratio"), row.get("error")])
@@ -105,8 +103,19 @@ def write_best(path: Path, trial, problem: Problem) -> dict:
     name, _ = worst_scenario(trial, problem)
     s = next(x for x in problem.scenarios if x.scenario_id == name)
     scene = problem.scene(design, s)
-    scene["run"]["channels"] = ["nodes", "bodies", "contacts", "energy"]
-    scene["run"]["record_interval"] = 2e-3
+    if problem.reduced:   # what ran: the brush as its law (law.json in laws/<key>/)
+        from engine.model.reduced_law import load_law
+
+        from ..detumble import REDUCED_RECORD_INTERVAL, reduced_scene
+        from .reduced import LAWS_DIR
+
+        law = load_law(Path(path).parent / LAWS_DIR / trial.user_attrs["design_key"]
+                       / "law.json")
+        scene = reduced_scene(scene, law)
+        scene["run"]["record_interval"] = REDUCED_RECORD_INTERVAL
+    else:
+        scene["run"]["channels"] = ["nodes", "bodies", "contacts", "energy"]
+        scene["run"]["record_interval"] = 2e-3
     scene["name"] = f"optimise_best_trial{trial.number}"
     scene["description"] = (f"Study 'optimise': trial {trial.number}, the winner "
                             f"({json.dumps(design)}), against its worst scenario {name}.")
@@ -239,8 +248,13 @@ def write_report(path: Path, problem: Problem, study, winner, log, refinement, g
     lines += ["", f"Worst scenario: **{name}** ({problem.objectives[0][0]} = {val:.4g}).",
               f"Margin to the next design in objective 1: "
               f"{'n/a' if gap is None else f'{gap:.3g}'}.", "",
-              "## Per scenario (winner)", "",
-              "| scenario | spin_left | peak force N | peak stress ratio | stiffness group "
+              "## Per scenario (winner)", ""]
+    if problem.reduced:
+        lines += _reduced_rows(winner)
+        lines += ["", "## DEM spot check", ""] + _spot_lines(refinement)
+        Path(path).write_text("\n".join(lines) + "\n")
+        return
+    lines += ["| scenario | spin_left | peak force N | peak stress ratio | stiffness group "
               "N k (a/2)^2/(I w0^2) | L/a |", "|---|---|---|---|---|---|"]
     design = dict(winner.params)
     for row, s in zip(winner.user_attrs.get("scenarios", []), problem.scenarios):
@@ -262,3 +276,43 @@ def write_report(path: Path, problem: Problem, study, winner, log, refinement, g
                                     refinement["fine"]):
                 lines.append(f"- `{m}` ({a}): search {c:.4g}, refined {f:.4g}")
     Path(path).write_text("\n".join(lines) + "\n")
+
+
+def _reduced_rows(winner) -> list[str]:
+    """The winner's hour-long detumbles (``--fidelity reduced``), a row per scenario."""
+    lines = ["| scenario | spin left | detumbled at s | in contact s | peak force N | "
+             "chaser dv m/s | propellant kg | wheel N m s | peak chaser torque N m | "
+             "thrust sat. |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in winner.user_attrs.get("scenarios", []):
+        rest = None if r.get("rest_time") is None else float(r["rest_time"])  # "inf" kept
+        lines.append(
+            f"| {r['scenario']} | {_fmt(r.get('spin_left'), '.3g')} | "
+            f"{'not within the run' if rest is None or math.isinf(rest) else f'{rest:.0f}'}"
+            f" | {_fmt(r.get('contact_duration'), '.0f')} | {_fmt(r.get('peak_force'), '.3g')}"
+            f" | {_fmt(r.get('chaser_delta_v'), '.3g')} | "
+            f"{_fmt(r.get('propellant_mass'), '.3g')} | {_fmt(r.get('wheel_momentum'), '.3g')}"
+            f" | {_fmt(r.get('peak_chaser_torque'), '.3g')} | "
+            f"{_fmt(r.get('thrust_saturation'), '.0%')} |")
+    return lines
+
+
+def _spot_lines(spot: Optional[dict]) -> list[str]:
+    """The winner's DEM spot check (``--fidelity reduced``'s refinement) for the report."""
+    if spot is None:
+        return ["Not run (--no-refine or --spot-check-s 0)."]
+    pct = lambda v: "n/a" if v is None else f"{100 * v:+.1f} %"  # noqa: E731
+    lines = [f"The first {spot['spot_check_s']:g} s of each scenario with the DEM brush, "
+             f"against the reduced run (relative error of the reduced run): "
+             f"**{'resolved' if spot['resolved'] else 'UNRESOLVED'}** ({spot['why']}). "
+             f"The law leaves the first touch out (docs/mission.md), so the errors after it "
+             f"are the ones bounded.", "",
+             "| scenario | first touch s | delta-omega, whole | peak force, whole | "
+             "delta-omega, after touch | peak force, after touch |",
+             "|---|---|---|---|---|---|"]
+    for r in spot.get("rows", []):
+        a = r.get("after_touch") or {}
+        lines.append(f"| {r['scenario']} | {_fmt(r.get('first_contact'), '.2f')} | "
+                     f"{pct(r['whole'].get('delta_omega'))} | "
+                     f"{pct(r['whole'].get('peak_force'))} | {pct(a.get('delta_omega'))} | "
+                     f"{pct(a.get('peak_force'))} |")
+    return lines

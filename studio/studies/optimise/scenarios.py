@@ -44,6 +44,9 @@ class Scenario:
     friction_factor: float = 1.0
     seed: int = 0
 
+    #: the columns of trials.csv that describe it
+    COLUMNS = ("cube_mm", "spin_rate", "config", "tumbling", "e_factor", "friction_factor")
+
     def to_dict(self) -> dict:
         return asdict(self)
 

@@ -33,6 +33,14 @@ from .variables import Variable, parse_variable
 
 STUDY_NAME = "optimise"
 TASK = "studio.studies.optimise.metrics:run_metrics"
+DEM_NODES = 3         # nodes per bristle of a DEM search run (--nodes)
+DEM_DURATION = 0.4    # s: a DEM search run at most (--duration-s)
+#: the options of each fidelity's scenario set: the other fidelity refuses them unless they
+#: keep their defaults
+FIDELITY_OPTIONS = {"dem": ("cubes_mm", "spin_rates", "configs", "tumbling", "density",
+                            "material_draws", "chaser_mass_kg"),
+                    "reduced": ("sizes", "spins_deg", "tilts_deg", "tumbles", "offsets_m",
+                                "spot_check_s")}
 
 
 @dataclass
@@ -52,6 +60,16 @@ class Problem:
     full_run: bool = False
     chaser_mass: Optional[float] = None  # kg, of the chaser a fixed brush would be on
     task: str = TASK  # the run's task (tests give a synthetic one with a known optimum)
+    #: "dem": the spin rig's short DEM runs; "reduced": hour-long detumbles with each
+    #: design's fitted law (:mod:`.reduced`)
+    fidelity: str = "dem"
+    spot_check_s: float = 0.0       # reduced: the winner's DEM spot check, s
+    protocol: Optional[dict] = None  # reduced: study reduce's options for the fits
+    run_keys: tuple = RUN_KEYS      # what a trial keeps of each scenario run
+
+    @property
+    def reduced(self) -> bool:
+        return self.fidelity == "reduced"
 
     @classmethod
     def from_options(cls, options) -> "Problem":
@@ -62,6 +80,9 @@ class Problem:
         names = [v.path for v in variables]
         if len(set(names)) != len(names):
             raise StudyInputError(f"variables: a path is given twice ({names})")
+        if options.fidelity == "reduced":
+            return cls._reduced(options, base, variables)
+        _refuse_other_fidelity(options, "dem")
         objectives = [parse_objective(o) for o in options.objectives]
         if not objectives:
             raise StudyInputError("objectives: give at least one METRIC[:AGG]")
@@ -70,23 +91,51 @@ class Problem:
                                  tumbling=options.tumbling, density=options.density,
                                  material_draws=options.material_draws, seed=options.seed)
         used = {m for m, _ in objectives} | {m for m, _, _ in constraints}
-        problem = cls(base, variables, scenarios, objectives, constraints, options.nodes,
-                      options.duration_s, options.stiffness_via,
+        problem = cls(base, variables, scenarios, objectives, constraints,
+                      options.nodes or DEM_NODES, options.duration_s or DEM_DURATION,
+                      options.stiffness_via,
                       options.stress_limit_mpa * 1e6, full_run="rest_time" in used,
                       chaser_mass=options.chaser_mass_kg)
         _check_chaser(base, used, options.chaser_mass_kg)
+        problem._check_corners()
+        return problem
+
+    @classmethod
+    def _reduced(cls, options, base: dict, variables: list) -> "Problem":
+        """``--fidelity reduced``: detumble scenarios of a detumble preset, the metrics of
+        :mod:`.reduced`."""
+        from . import reduced
+
+        reduced.check_base(base, options.preset)
+        _refuse_other_fidelity(options, "reduced")
+        objectives = [parse_objective(o, reduced.METRICS, "--fidelity reduced")
+                      for o in options.objectives]
+        if not objectives:
+            raise StudyInputError("objectives: give at least one METRIC[:AGG]")
+        constraints = [parse_constraint(c, reduced.METRICS, "--fidelity reduced")
+                       for c in options.constraints]
+        scenarios = reduced.scenario_set(options.sizes, options.spins_deg, options.tilts_deg,
+                                         options.tumbles, options.offsets_m)
+        problem = cls(base, variables, scenarios, objectives, constraints, options.nodes,
+                      options.duration_s or reduced.DEFAULT_DURATION, options.stiffness_via,
+                      options.stress_limit_mpa * 1e6, target="target", full_run=True,
+                      task=reduced.TASK, fidelity="reduced",
+                      spot_check_s=options.spot_check_s, run_keys=reduced.RUN_KEYS)
+        problem._check_corners()
+        return problem
+
+    def _check_corners(self) -> None:
         # every design's scene must be valid: check the corners of the box now
         import engine
 
         for corner in (0, 1):
-            design = {v.path: (v.low if corner == 0 else v.high) for v in variables}
+            design = {v.path: (v.low if corner == 0 else v.high) for v in self.variables}
             try:
-                engine.parse_scene(problem.scene(design, scenarios[0]))
+                engine.parse_scene(self.scene(design, self.scenarios[0]))
             except engine.SceneError as exc:
                 raise StudyInputError(
                     "a design at the bounds gives an invalid scene: "
                     + "; ".join(str(p) for p in exc.problems)) from None
-        return problem
 
     def setup_digest(self) -> str:
         """Hash of what makes trials comparable (not the budget): a resumed search must
@@ -98,10 +147,19 @@ class Problem:
                  "via": self.stiffness_via, "stress": self.stress_limit}
         if self.chaser_mass is not None:  # only then: earlier searches keep their digest
             setup["chaser_mass"] = self.chaser_mass
+        if self.reduced:
+            setup.update(fidelity=self.fidelity, protocol=self.protocol)
         text = json.dumps(setup, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
-    def scene(self, design: dict, scenario: Scenario, *, refined: bool = False) -> dict:
+    def scene(self, design: dict, scenario, *, refined: bool = False) -> dict:
+        """The DEM scene of ``design`` x ``scenario`` (reduced: the detumble scene whose
+        brush the task replaces by the design's law)."""
+        if self.reduced:
+            from .reduced import design_scene
+
+            return design_scene(self.base, design, scenario, stiffness_via=self.stiffness_via,
+                                duration=self.duration, nodes=self.nodes)
         nodes = 2 * self.nodes - 1 if refined else self.nodes
         dt_safety = 0.5 * float(self.base.get("run", {}).get("dt_safety", 0.5)) \
             if refined else None
@@ -113,6 +171,8 @@ class Problem:
         from ..runner import RunSpec
 
         key = prefix or design_key(design)
+        if self.reduced:
+            return self._reduced_specs(design, key, refined)
         params = {"target": self.target, "stress_limit": self.stress_limit,
                   "full_run": self.full_run}
         if self.chaser_mass is not None:
@@ -121,6 +181,27 @@ class Problem:
                         self.scene(design, s, refined=refined),
                         dict(params, scenario=s.scenario_id, design=design), self.task)
                 for s in self.scenarios]
+
+    def _reduced_specs(self, design: dict, key: str, spot: bool) -> list:
+        """A reduced design's runs (each fits or reuses the law in ``laws/<key>/``), or
+        with ``spot`` its DEM spot checks (the first ``spot_check_s`` s of each scenario)."""
+        from ..runner import RunSpec
+        from .reduced import SPOT_TASK, spot_scene
+
+        specs = []
+        for s in self.scenarios:
+            scene = self.scene(design, s)
+            params = {"scenario": s.scenario_id, "design": design}
+            if spot:
+                specs.append(RunSpec(f"{key}_spot_{s.scenario_id}",
+                                     spot_scene(scene, self.spot_check_s),
+                                     dict(params, threshold=0.05, fidelity="dem",
+                                          stress_limit=self.stress_limit), SPOT_TASK))
+            else:
+                specs.append(RunSpec(f"{key}_{s.scenario_id}", scene,
+                                     dict(params, law_key=key, protocol=self.protocol),
+                                     self.task))
+        return specs
 
     def evaluate(self, outcomes: list[dict]) -> dict:
         """Objective and constraint values of one design from its scenario outcomes:
@@ -141,6 +222,19 @@ class Problem:
         values = [agg(m, a) for m, a in self.objectives]
         cons = [agg(m, a) - limit for m, a, limit in self.constraints]
         return {"rows": rows, "values": values, "constraints": cons, "failed": []}
+
+
+def _refuse_other_fidelity(options, fidelity: str) -> None:
+    """The options of the other fidelity's scenario set, given here, are refused: they would
+    be silently ignored."""
+    other = "reduced" if fidelity == "dem" else "dem"
+    fields = type(options).model_fields
+    given = [name for name in FIDELITY_OPTIONS[other]
+             if getattr(options, name) != fields[name].get_default(call_default_factory=True)]
+    if given:
+        flags = ", ".join("--" + n.replace("_", "-") for n in given)
+        raise StudyInputError(f"{flags}: an option of --fidelity {other}'s scenarios, and "
+                              f"this search is --fidelity {fidelity}")
 
 
 def _check_chaser(base: dict, used: set, chaser_mass: Optional[float]) -> None:
@@ -322,7 +416,7 @@ def _tell(study, trial, problem: Problem, outcomes: list[dict], log: SearchLog) 
             log.run_cpu_s += float(s.get("task_cpu_s") or o.get("wall_s") or 0.0)
             log.sim_cpu_s += float(s.get("sim_cpu_s") or 0.0)
     ev = problem.evaluate(outcomes)
-    keep = ("scenario", "status", "error") + RUN_KEYS
+    keep = ("scenario", "status", "error") + tuple(problem.run_keys)
     trial.set_user_attr("scenarios", [{k: r.get(k) for k in keep} for r in ev["rows"]])
     if ev["failed"]:
         trial.set_user_attr("failed_runs", ev["failed"])

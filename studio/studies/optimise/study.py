@@ -73,14 +73,18 @@ def _body(options, out: Path) -> int:
         if winner is not None:
             write_best(out / "best.json", winner, problem)
             gap = margin(study, winner)
-            if options.refine:
-                session.report(1.0, "refinement re-run of the winner", force=True)
+            if options.refine and not (problem.reduced and not problem.spot_check_s):
+                session.report(1.0, "DEM spot check of the winner" if problem.reduced
+                               else "refinement re-run of the winner", force=True)
                 executor.submit(problem.specs(dict(winner.params), refined=True))
                 done = []
                 while not done:
                     done = executor.wait_any()
-                refinement = refinement_check(problem, winner, done[0][1], gap)
-                refinement.pop("rows", None)
+                if problem.reduced:
+                    refinement = _spot_check(problem, winner, done[0][1], out)
+                else:
+                    refinement = refinement_check(problem, winner, done[0][1], gap)
+                    refinement.pop("rows", None)
     finally:
         executor.close()
     plots(out, study, problem, winner)
@@ -110,6 +114,22 @@ def _body(options, out: Path) -> int:
     if failed:
         print(f"{len(failed)} trial(s) had failed runs (see trials.csv)", file=sys.stderr)
     return EXIT_OK if winner is not None else EXIT_FAILED
+
+
+def _spot_check(problem, winner, dem_outcomes: list[dict], out: Path) -> dict:
+    """``--fidelity reduced``'s refinement: the winner's DEM spot checks against its
+    reduced runs (found in ``runs/``), written to ``spot_check.json``."""
+    from .executor import cached
+    from .reduced import spot_check_report
+
+    reduced_runs = [cached(out.resolve(), spec) or {"status": "missing"}
+                    for spec in problem.specs(dict(winner.params))]
+    report = spot_check_report(reduced_runs, dem_outcomes,
+                               [s.scenario_id for s in problem.scenarios],
+                               problem.spot_check_s)
+    (out / "spot_check.json").write_text(json.dumps(report, indent=2, default=str))
+    report.pop("checks", None)
+    return report
 
 
 def _study(options, out: Path):
