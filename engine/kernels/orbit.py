@@ -58,27 +58,28 @@ def _sin_minus_arg(th):
 
 @njit(cache=True)
 def cw_coefficients(n, tau):
-    """The CW state transition matrix over tau as its 13 distinct entries (see cw_flow)."""
+    """The CW state transition matrix over tau as its 13 distinct entries (see cw_flow), a
+    tuple: the step loop's kernels are compiled without reference counting
+    (``engine.kernels.jit.item_kernel``), so an array made here would never be freed (two
+    leaked per step with two free bodies in orbit)."""
     th = n * tau
     s = math.sin(th)
     c = math.cos(th)
     omc = _one_minus_cos(th)
     smt = _sin_minus_arg(th)
-    out = np.empty(13)
-    out[0] = 1.0 + 3.0 * omc          # x <- x        (4 - 3c)
-    out[1] = s / n                    # x <- vx
-    out[2] = 2.0 * omc / n            # x <- vy
-    out[3] = 6.0 * smt                # y <- x        6 (s - th)
-    out[4] = (4.0 * smt + th) / n     # y <- vy       (4 s - 3 th) / n
-    out[5] = c                        # z <- z, vx <- vx, vz <- vz
-    out[6] = 3.0 * n * s              # vx <- x
-    out[7] = 2.0 * s                  # vx <- vy, -(vy <- vx)
-    out[8] = -6.0 * n * omc           # vy <- x
-    out[9] = 1.0 - 4.0 * omc          # vy <- vy      (4c - 3)
-    out[10] = -n * s                  # vz <- z
-    out[11] = s                       # (s)
-    out[12] = th
-    return out
+    return (1.0 + 3.0 * omc,          # x <- x        (4 - 3c)
+            s / n,                    # x <- vx
+            2.0 * omc / n,            # x <- vy
+            6.0 * smt,                # y <- x        6 (s - th)
+            (4.0 * smt + th) / n,     # y <- vy       (4 s - 3 th) / n
+            c,                        # z <- z, vx <- vx, vz <- vz
+            3.0 * n * s,              # vx <- x
+            2.0 * s,                  # vx <- vy, -(vy <- vx)
+            -6.0 * n * omc,           # vy <- x
+            1.0 - 4.0 * omc,          # vy <- vy      (4c - 3)
+            -n * s,                   # vz <- z
+            s,                        # (s)
+            th)
 
 
 @njit(cache=True, inline="always")
