@@ -495,7 +495,9 @@ def fit_law(outcomes, design: dict, fit_from: float = 0.0) -> dict:
                                                        "tip_radius", "n_nodes")},
             "target_material": design["target_material"],
             "slide_axis": list(design["slide_axis"]), "fit_from": fit_from,
-            "samples_left_out": {"pushing_not_friction": pushed}}
+            "samples_left_out": {"pushing_not_friction": pushed},
+            "v_s_floor": tangent["v_s_floor"],
+            "fit_notes": [tangent["v_s_at_floor"]] if "v_s_at_floor" in tangent else []}
 
 
 _LIST = list[float]
@@ -630,6 +632,8 @@ def _run_study(options: Options, out: Path) -> int:
     print("Reduced law (95 % intervals):")
     for k in ("k", "p", "c", "eta", "mu", "q", "v_s"):
         print(f"  {k:4s} = {par[k]:.4g}  [{ci[k]['ci95'][0]:.4g}, {ci[k]['ci95'][1]:.4g}]")
+    for note in law["fit_notes"]:
+        print(f"  note: {note}")
     print("Held-out impacts (relative errors, reduced vs DEM):")
     print(f"  {'run':34s} {'peak Fn':>8s} {'dv_n':>7s} {'dw':>7s} {'E diss':>7s} "
           f"{'F(t) rms':>8s}")

@@ -10,6 +10,8 @@ where the residuals are independent and the model is locally linear in its param
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import optimize, stats
 
@@ -71,6 +73,10 @@ def fit_normal(d, dd, fn, *, guess=None) -> dict:
     return out
 
 
+V_S_MIN = 1e-6        # m/s: the smallest v_s a fit may give
+V_S_RESOLVED = 0.01   # the samples resolve v_s while tanh(v_min / v_s) < 1 - this
+
+
 def fit_tangent(fn, v, ft, *, guess=(0.5, 0.0, 0.01)) -> dict:
     """Fit mu, q, v_s of F_t = mu (F_n / 1 N)^q tanh(v / v_s) F_n to samples with F_n > 0
     (v >= 0 the slip speed, F_t >= 0 the force's magnitude along the slip)."""
@@ -80,12 +86,17 @@ def fit_tangent(fn, v, ft, *, guess=(0.5, 0.0, 0.01)) -> dict:
     if fn.size < 6:
         raise ValueError(f"{fn.size} sliding samples: too few to fit the tangential law")
     scale = max(float(np.abs(ft).max()), 1e-12)
-    x0 = np.array([guess[0], guess[1], np.log(guess[2])])
+    # below v_floor, tanh(v / v_s) > 0.99 at every sample: the samples cannot tell such a
+    # v_s from v_floor (1 % of the force), and a smaller one only stiffens the law (its
+    # slope mu F_n / v_s sets the time step: a search's design fitted 1e-6 m/s from slides
+    # at 80-120 mm/s and ran at 83 us steps instead of 0.1 s)
+    v_floor = max(V_S_MIN, float(v.min()) / math.atanh(1.0 - V_S_RESOLVED))
+    x0 = np.array([guess[0], guess[1], np.log(max(guess[2], 1.5 * v_floor))])
 
     def resid(x):
         return (friction_coefficient(fn, v, x[0], x[1], np.exp(x[2])) * fn - ft) / scale
 
-    res = optimize.least_squares(resid, x0, bounds=([0.0, -1.0, np.log(1e-6)],
+    res = optimize.least_squares(resid, x0, bounds=([0.0, -1.0, np.log(v_floor)],
                                                     [5.0, 1.0, np.log(10.0)]),
                                  x_scale="jac", method="trf")
     out = _intervals(res, ("mu", "q", "log_v_s"), 1.0)
@@ -95,4 +106,9 @@ def fit_tangent(fn, v, ft, *, guess=(0.5, 0.0, 0.01)) -> dict:
                   "ci95": [float(np.exp(lv["ci95"][0])), float(np.exp(lv["ci95"][1]))]}
     out["rms"] = float(np.sqrt(np.mean((res.fun * scale) ** 2)))
     out["n_samples"] = int(fn.size)
+    out["v_s_floor"] = v_floor
+    if out["v_s"]["value"] <= v_floor * (1.0 + 1e-6):
+        out["v_s_at_floor"] = (f"v_s at its floor {v_floor:.3g} m/s: the slides "
+                               f"(slips from {float(v.min()):.3g} m/s) do not resolve a "
+                               f"smaller one; slower slides would")
     return out

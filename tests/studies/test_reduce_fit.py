@@ -60,3 +60,20 @@ def test_tangent_fit_recovers_the_known_law_within_its_intervals():
         lo, hi = fit[k]["ci95"]
         assert lo <= val <= hi, (k, val, fit[k])
         assert (hi - lo) / 2 < 0.15 * max(abs(val), 0.1), (k, fit[k])
+
+
+def test_slides_that_do_not_resolve_v_s_give_the_floor_and_say_so():
+    """Slides at 80-120 mm/s with no speed dependence fit any v_s well below 80 mm/s equally;
+    the fit gives the largest v_s the samples cannot tell apart (tanh(v_min / v_s) = 0.99:
+    v_min / atanh(0.99)), not a vanishing one whose stiff friction would shrink the time
+    step a thousandfold, and notes it."""
+    rng = np.random.default_rng(3)
+    v = rng.uniform(0.08, 0.12, 300)
+    fn = rng.uniform(1.0, 4.0, 300)
+    ft = 0.6 * fn * (1.0 + 0.01 * rng.standard_normal(300))
+    fit = fit_tangent(fn, v, ft)
+    floor = v.min() / np.arctanh(0.99)
+    assert fit["v_s"]["value"] == pytest.approx(floor, rel=1e-6)
+    assert "v_s at its floor" in fit["v_s_at_floor"]
+    # mu within the 1 % noise of its true 0.6 (a 1 % tanh deficit at the floor at most)
+    assert fit["mu"]["value"] == pytest.approx(0.6, rel=0.02)
