@@ -168,6 +168,135 @@ def closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, tedge, grid_origin, 
 
 
 @item_kernel
+def closest_features(k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tedge, grid_origin,
+                     grid_cell, grid_dims, grid_base, grid_start, grid_tris):
+    """The three closest-triangle queries of a (segment, body) candidate in one walk of body
+    k's grid: its start node l0 within ``r0``, its end node l1 within ``r1`` (only where
+    ``tip``; else none is found) and the segment l0-l1 within ``rmax`` (>= r0, r1), all in
+    the body frame. Returns (t0, u0, v0, w0, d0, t1, u1, v1, w1, d1, t2, s2, u2, v2, w2, d2),
+    each query's (tri, [s,] u, v, w, dist) exactly as ``closest_triangle`` gives it: each
+    query keeps its own box of cells (the same expressions) and meets its triangles in the
+    same order, the walk covering the union of the boxes in the same cell order; the plane
+    and edge-plane rejections are the same tests, their dot products shared. Saves two of
+    three walks over the cells and their triangles' rejection tests."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    d0 = grid_dims[k, 0]
+    d1 = grid_dims[k, 1]
+    d2 = grid_dims[k, 2]
+    lim0 = r0 * (1.0 + 1e-9) + 1e-300
+    lim1 = r1 * (1.0 + 1e-9) + 1e-300
+    lim2 = rmax * (1.0 + 1e-9) + 1e-300
+    # each query's box, as closest_triangle computes it (min(p, p) = p for a node)
+    a_lo0 = max(int(math.floor((min(l0[0], l0[0]) - r0 - lo[0]) / cell)), 0)
+    a_lo1 = max(int(math.floor((min(l0[1], l0[1]) - r0 - lo[1]) / cell)), 0)
+    a_lo2 = max(int(math.floor((min(l0[2], l0[2]) - r0 - lo[2]) / cell)), 0)
+    a_hi0 = min(int(math.floor((max(l0[0], l0[0]) + r0 - lo[0]) / cell)), d0 - 1)
+    a_hi1 = min(int(math.floor((max(l0[1], l0[1]) + r0 - lo[1]) / cell)), d1 - 1)
+    a_hi2 = min(int(math.floor((max(l0[2], l0[2]) + r0 - lo[2]) / cell)), d2 - 1)
+    b_lo0 = max(int(math.floor((min(l1[0], l1[0]) - r1 - lo[0]) / cell)), 0)
+    b_lo1 = max(int(math.floor((min(l1[1], l1[1]) - r1 - lo[1]) / cell)), 0)
+    b_lo2 = max(int(math.floor((min(l1[2], l1[2]) - r1 - lo[2]) / cell)), 0)
+    b_hi0 = min(int(math.floor((max(l1[0], l1[0]) + r1 - lo[0]) / cell)), d0 - 1)
+    b_hi1 = min(int(math.floor((max(l1[1], l1[1]) + r1 - lo[1]) / cell)), d1 - 1)
+    b_hi2 = min(int(math.floor((max(l1[2], l1[2]) + r1 - lo[2]) / cell)), d2 - 1)
+    if not tip:
+        b_lo0 = d0  # an empty box
+    c_lo0 = max(int(math.floor((min(l0[0], l1[0]) - rmax - lo[0]) / cell)), 0)
+    c_lo1 = max(int(math.floor((min(l0[1], l1[1]) - rmax - lo[1]) / cell)), 0)
+    c_lo2 = max(int(math.floor((min(l0[2], l1[2]) - rmax - lo[2]) / cell)), 0)
+    c_hi0 = min(int(math.floor((max(l0[0], l1[0]) + rmax - lo[0]) / cell)), d0 - 1)
+    c_hi1 = min(int(math.floor((max(l0[1], l1[1]) + rmax - lo[1]) / cell)), d1 - 1)
+    c_hi2 = min(int(math.floor((max(l0[2], l1[2]) + rmax - lo[2]) / cell)), d2 - 1)
+    t0 = -1
+    u0 = v0 = w0 = 0.0
+    e0d = 1e300
+    t1 = -1
+    u1 = v1 = w1 = 0.0
+    e1d = 1e300
+    t2 = -1
+    s2 = u2 = v2 = w2 = 0.0
+    e2d = 1e300
+    for e0 in range(min(a_lo0, min(b_lo0, c_lo0)), max(a_hi0, max(b_hi0, c_hi0)) + 1):
+        for e1 in range(min(a_lo1, min(b_lo1, c_lo1)), max(a_hi1, max(b_hi1, c_hi1)) + 1):
+            for e2 in range(min(a_lo2, min(b_lo2, c_lo2)), max(a_hi2, max(b_hi2, c_hi2)) + 1):
+                in0 = (a_lo0 <= e0 <= a_hi0 and a_lo1 <= e1 <= a_hi1
+                       and a_lo2 <= e2 <= a_hi2)
+                in1 = (b_lo0 <= e0 <= b_hi0 and b_lo1 <= e1 <= b_hi1
+                       and b_lo2 <= e2 <= b_hi2)
+                in2 = (c_lo0 <= e0 <= c_hi0 and c_lo1 <= e1 <= c_hi1
+                       and c_lo2 <= e2 <= c_hi2)
+                if not (in0 or in1 or in2):
+                    continue
+                cc = grid_base[k] + (e0 * d1 + e1) * d2 + e2
+                for idx in range(grid_start[cc], grid_start[cc + 1]):
+                    tri = grid_tris[idx]
+                    a0 = verts[tris[tri, 0]]
+                    nx = tnormal[tri, 0]
+                    ny = tnormal[tri, 1]
+                    nz = tnormal[tri, 2]
+                    h0 = nx * (l0[0] - a0[0]) + ny * (l0[1] - a0[1]) + nz * (l0[2] - a0[2])
+                    h1 = nx * (l1[0] - a0[0]) + ny * (l1[1] - a0[1]) + nz * (l1[2] - a0[2])
+                    q0 = in0 and not (h0 > r0 or h0 < -r0)
+                    q1 = in1 and not (h1 > r1 or h1 < -r1)
+                    q2 = in2 and not ((h0 > rmax and h1 > rmax) or (h0 < -rmax and h1 < -rmax))
+                    if not (q0 or q1 or q2):
+                        continue
+                    for e in range(3):
+                        a = verts[tris[tri, e]]
+                        mx = tedge[tri, e, 0]
+                        my = tedge[tri, e, 1]
+                        mz = tedge[tri, e, 2]
+                        g0 = mx * (l0[0] - a[0]) + my * (l0[1] - a[1]) + mz * (l0[2] - a[2])
+                        g1 = mx * (l1[0] - a[0]) + my * (l1[1] - a[1]) + mz * (l1[2] - a[2])
+                        if g0 > lim0:
+                            q0 = False
+                        if g1 > lim1:
+                            q1 = False
+                        if g0 > lim2 and g1 > lim2:
+                            q2 = False
+                    if q0:
+                        _s, u, v, w, d = segment_triangle_closest(
+                            l0, l0, verts[tris[tri, 0]], verts[tris[tri, 1]],
+                            verts[tris[tri, 2]])
+                        if d < e0d:
+                            e0d = d
+                            t0 = tri
+                            u0 = u
+                            v0 = v
+                            w0 = w
+                    if q1:
+                        _s, u, v, w, d = segment_triangle_closest(
+                            l1, l1, verts[tris[tri, 0]], verts[tris[tri, 1]],
+                            verts[tris[tri, 2]])
+                        if d < e1d:
+                            e1d = d
+                            t1 = tri
+                            u1 = u
+                            v1 = v
+                            w1 = w
+                    if q2:
+                        s, u, v, w, d = segment_triangle_closest(
+                            l0, l1, verts[tris[tri, 0]], verts[tris[tri, 1]],
+                            verts[tris[tri, 2]])
+                        if d < e2d:
+                            e2d = d
+                            t2 = tri
+                            s2 = s
+                            u2 = u
+                            v2 = v
+                            w2 = w
+    # nothing within reach (as closest_triangle: a pruned search knows no farther closest)
+    if e0d > r0:
+        t0 = -1
+    if e1d > r1:
+        t1 = -1
+    if e2d > rmax:
+        t2 = -1
+    return t0, u0, v0, w0, e0d, t1, u1, v1, w1, e1d, t2, s2, u2, v2, w2, e2d
+
+
+@item_kernel
 def _beyond_an_edge(tri, l0, l1, lim, verts, tris, tedge):
     """Whether both ends of the segment l0-l1 lie more than ``lim`` beyond one of triangle
     ``tri``'s edge planes (``tedge``: in-plane unit normals of edges ab, bc, ca pointing away
@@ -311,36 +440,38 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     active, fc, cp, par_s = bl.active, bl.fc, bl.cp, bl.par
     energy, diss, overlap_ratio, xf = bl.energy, bl.diss, bl.ratio, bl.xf
+    # the candidate kernel's arrays in seven tuples, not as 51 arguments: a call of more than
+    # 30 arguments is compiled by CPython 3.11 as f(*args), and numba's call through that one
+    # big tuple cost 1.08 us per candidate on the box scene (half of its narrow phase), against
+    # 0.19 us with the tuples (benchmarks/body_kernel.py's frozen box state)
+    nodes = (x, v, w, rad, mass)
+    segs = (bi, bj, seg_has_next, seg_material)
+    lst = (cs, cb, deep, ft, local)
+    body = (bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material)
+    surf = (verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
+            grid_start, grid_tris, grid_side)
+    tabs = (E, mu_table, kt_table, zeta_table, adh_table)
+    out = (active, fc, cp, par_s, energy, diss, overlap_ratio, xf)
     if n_cand >= PARALLEL_MIN:
         for c in prange(n_cand):
-            _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                                    cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
-                                    motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                                    grid_base, grid_start, grid_tris, grid_side, E, mu_table, kt_table,
-                                    zeta_table, adh_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
+            _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction,
                                     dt)
     else:
         for c in range(n_cand):
-            _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                                    cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass,
-                                    motion, sphere_r, watertight, body_material, verts, tris,
-                                    tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                                    grid_base, grid_start, grid_tris, grid_side, E, mu_table, kt_table,
-                                    zeta_table, adh_table,
-                                    active, fc, cp, par_s, energy, diss, overlap_ratio, xf,
+            _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction,
                                     dt)
 
 
 @item_kernel
-def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_material,
-                            cs, cb, deep, ft, friction, local, bpos, bq, bv, bw, bmass, motion,
-                            sphere_r, watertight, body_material, verts, tris, tnormal, tedge, pnormal,
-                            grid_origin, grid_cell, grid_dims, grid_base, grid_start,
-                            grid_tris, grid_side, E, mu_table, kt_table, zeta_table, adh_table,
-                            active,
-                            fc, cp, par_s, energy, diss, overlap_ratio, xf, dt):
+def _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction, dt):
+    x, v, w, rad, mass = nodes
+    bi, bj, seg_has_next, seg_material = segs
+    cs, cb, deep, ft, local = lst
+    bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material = body
+    (verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
+     grid_start, grid_tris, grid_side) = surf
+    E, mu_table, kt_table, zeta_table, adh_table = tabs
+    active, fc, cp, par_s, energy, diss, overlap_ratio, xf = out
     sg = cs[c]
     k = cb[c]
     i0 = bi[sg]
@@ -355,6 +486,17 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                                    x[i0, 1] - bpos[k, 1], x[i0, 2] - bpos[k, 2])
     l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - bpos[k, 0],
                                    x[i1, 1] - bpos[k, 1], x[i1, 2] - bpos[k, 2])
+    mesh = sphere_r[k] <= 0.0
+    if mesh:
+        # the three slots' closest triangles, in one walk of the body's grid
+        (t0, u0, v0, w0, f0, t1, u1, v1, w1, f1, t2, s2, u2, v2, w2,
+         f2) = closest_features(k, l0, l1, rad[i0], rad[i1], max(rad[i0], rad[i1]),
+                                not seg_has_next[sg], verts, tris, tnormal, tedge,
+                                grid_origin, grid_cell, grid_dims, grid_base, grid_start,
+                                grid_tris)
+    else:
+        t0 = t1 = t2 = -1
+        u0 = v0 = w0 = f0 = u1 = v1 = w1 = f1 = s2 = u2 = v2 = w2 = f2 = 0.0
     for slot_k in range(BSLOT):
         slot = c * BSLOT + slot_k
         active[slot] = 0
@@ -407,10 +549,10 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
             if slot_k <= 1:
                 pe = l0 if slot_k == 0 else l1
                 re = rad[i0] if slot_k == 0 else rad[i1]
-                tri, s, u, vv, ww, d = closest_triangle(k, pe, pe, re, verts, tris,
-                                                        tnormal, tedge, grid_origin, grid_cell,
-                                                        grid_dims, grid_base, grid_start,
-                                                        grid_tris)
+                if slot_k == 0:
+                    tri, u, vv, ww, d = t0, u0, v0, w0, f0
+                else:
+                    tri, u, vv, ww, d = t1, u1, v1, w1, f1
                 if tri < 0 and watertight[k] and (deep[c] >> slot_k) & 1:
                     # no face within the node's radius: the node may be deep inside a
                     # closed body, overlapping by more than its radius; push it out too
@@ -421,10 +563,7 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
                                                      grid_tris, grid_side)
                 s = float(slot_k)
             else:
-                rmax = max(rad[i0], rad[i1])
-                tri, s, u, vv, ww, d = closest_triangle(k, l0, l1, rmax, verts, tris, tnormal, tedge,
-                                                        grid_origin, grid_cell, grid_dims,
-                                                        grid_base, grid_start, grid_tris)
+                tri, s, u, vv, ww, d = t2, s2, u2, v2, w2, f2
                 # between the nodes only against edges and vertices: a face touching a
                 # segment's interior touches (or soon touches) its nodes too
                 if tri >= 0 and min(u, min(vv, ww)) > 1e-9:
@@ -520,7 +659,10 @@ def _bristle_body_candidate(c, x, v, w, rad, mass, bi, bj, seg_has_next, seg_mat
         energy[slot] = sto
         diss[slot] = dis
         overlap_ratio[slot] = ov / r
-        xf[slot, :, :] = 0.0
+        if slot_k == 2:
+            # the fade forces of the slot between the nodes (a node's slot has none:
+            # ``scatter_bristle_body`` reads these rows of slot 2 only)
+            xf[slot, :, :] = 0.0
         if slot_k == 2 and not inside:
             # the energy U = 1/2 w(s) k(r(s)) ov^2 also changes with the axis parameter s (the
             # fade w, the taper r and k proportional to r); the distance is stationary in s,
@@ -758,14 +900,16 @@ def scatter_bristle_body(nd, bn, bl, bd, stats):
                           cp[c, 2])
         push_body(bf, btq, k, cp[c, 0] - bpos[k, 0], cp[c, 1] - bpos[k, 1],
                   cp[c, 2] - bpos[k, 2], -Fx, -Fy, -Fz)
-        # the fade's and taper's part of the energy gradient (``_point_fade_forces``)
-        i0 = bi[sg]
-        i1 = bj[sg]
-        for ax in range(3):
-            f[i0, ax] += xf[c, 0, ax]
-            f[i1, ax] += xf[c, 1, ax]
-            bf[k, ax] += xf[c, 2, ax]
-            btq[k, ax] += xf[c, 3, ax]
+        if q % BSLOT == 2:
+            # the fade's and taper's part of the energy gradient (``_point_fade_forces``), of
+            # the slot between the nodes only (the nodes' slots have none)
+            i0 = bi[sg]
+            i1 = bj[sg]
+            for ax in range(3):
+                f[i0, ax] += xf[c, 0, ax]
+                f[i1, ax] += xf[c, 1, ax]
+                bf[k, ax] += xf[c, 2, ax]
+                btq[k, ax] += xf[c, 3, ax]
         e_sto += energy[c]
         if overlap_ratio[c] > worst:
             worst = overlap_ratio[c]

@@ -188,18 +188,20 @@ def bristle_bristle_narrow(nd, bn, pl, tb, friction, dt):
     E, mu_table, kt_table, zeta_table, adh_table = tb.E, tb.mu, tb.kt, tb.zeta, tb.adhesion
     active, fc, cp, par_s, par_t = pl.active, pl.fc, pl.cp, pl.s, pl.t
     energy, diss, overlap_ratio, xf = pl.energy, pl.diss, pl.ratio, pl.xf
+    # the pair kernel's arrays in five tuples, not as 31 arguments: CPython 3.11 compiles a
+    # call of more than 30 arguments as f(*args), and numba's call through that one tuple
+    # costs about a microsecond (as bristle_body_narrow's candidate kernel measured)
+    nodes = (x, v, w, rad, mass, bond_prev, bond_next)
+    segs = (bi, bj, seg_has_next, seg_material)
+    lst = (pa, pb, ft)
+    tabs = (E, mu_table, kt_table, zeta_table, adh_table)
+    out = (active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf)
     if n_pairs >= PARALLEL_MIN:
         for p in prange(n_pairs):
-            _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
-                           seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
-                           zeta_table, adh_table, active, fc, cp, par_s, par_t, energy, diss,
-                           overlap_ratio, xf, dt)
+            _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt)
     else:
         for p in range(n_pairs):
-            _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next,
-                           seg_material, pa, pb, ft, friction, E, mu_table, kt_table,
-                           zeta_table, adh_table, active, fc, cp, par_s, par_t, energy, diss,
-                           overlap_ratio, xf, dt)
+            _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt)
 
 
 @item_kernel
@@ -333,9 +335,12 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out, fa):
 
 
 @item_kernel
-def _pair_contacts(p, x, v, w, rad, mass, bi, bj, bond_prev, bond_next, seg_has_next, seg_material,
-                   pa, pb, ft, friction, E, mu_table, kt_table, zeta_table, adh_table,
-                   active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf, dt):
+def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt):
+    x, v, w, rad, mass, bond_prev, bond_next = nodes
+    bi, bj, seg_has_next, seg_material = segs
+    pa, pb, ft = lst
+    E, mu_table, kt_table, zeta_table, adh_table = tabs
+    active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf = out
     a = pa[p]
     b = pb[p]
     base = p * NSLOT
