@@ -104,23 +104,24 @@ class Problem:
     def _reduced(cls, options, base: dict, variables: list) -> "Problem":
         """``--fidelity reduced``: detumble scenarios of a detumble preset, the metrics of
         :mod:`.reduced`."""
-        from . import reduced
+        from .reduced import (DEFAULT_DURATION, METRICS, RUN_KEYS as KEYS, TASK as RTASK,
+                              check_base, scenario_set as detumble_scenarios)
 
-        reduced.check_base(base, options.preset)
+        check_base(base, options.preset)
         _refuse_other_fidelity(options, "reduced")
-        objectives = [parse_objective(o, reduced.METRICS, "--fidelity reduced")
+        objectives = [parse_objective(o, METRICS, "--fidelity reduced")
                       for o in options.objectives]
         if not objectives:
             raise StudyInputError("objectives: give at least one METRIC[:AGG]")
-        constraints = [parse_constraint(c, reduced.METRICS, "--fidelity reduced")
+        constraints = [parse_constraint(c, METRICS, "--fidelity reduced")
                        for c in options.constraints]
-        scenarios = reduced.scenario_set(options.sizes, options.spins_deg, options.tilts_deg,
-                                         options.tumbles, options.offsets_m)
+        scenarios = detumble_scenarios(options.sizes, options.spins_deg, options.tilts_deg,
+                                       options.tumbles, options.offsets_m)
         problem = cls(base, variables, scenarios, objectives, constraints, options.nodes,
-                      options.duration_s or reduced.DEFAULT_DURATION, options.stiffness_via,
+                      options.duration_s or DEFAULT_DURATION, options.stiffness_via,
                       options.stress_limit_mpa * 1e6, target="target", full_run=True,
-                      task=reduced.TASK, fidelity="reduced",
-                      spot_check_s=options.spot_check_s, run_keys=reduced.RUN_KEYS)
+                      task=RTASK, fidelity="reduced",
+                      spot_check_s=options.spot_check_s, run_keys=KEYS)
         problem._check_corners()
         return problem
 
