@@ -148,18 +148,27 @@ def test_ctrl_c_and_sigterm_cancel_cleanly(sig, tiny_scene, write_scene, tmp_pat
         time.sleep(0.3)
         os.kill(os.getpid(), sig)
 
+    # a terminal's default handlers (an earlier test in this worker process may have left
+    # SIGINT ignored: a cold CI run found SIG_IGN here), put back as found at the end
+    found = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=interrupt_when_running, daemon=True).start()
     t0 = time.monotonic()
-    code = main(["run", str(scene), "-o", str(out)])
+    try:
+        code = main(["run", str(scene), "-o", str(out)])
+        # the CLI put the default handlers back
+        restored = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
+    finally:
+        for s, h in found.items():
+            signal.signal(s, h)
+    assert restored == (signal.default_int_handler, signal.SIG_DFL)
     assert code == 130
     assert time.monotonic() - t0 < 150
     assert "cancelling" in capsys.readouterr().err
     with engine.open_result(out) as res:
         assert res.status == "cancelled"
         assert 0 < res.time[-1] < 10.0
-    # the CLI put the default handlers back
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
 
 def test_console_script_version():
