@@ -273,6 +273,23 @@ def click(page, name: str, role: str = "button") -> None:
         element.evaluate("b => b.click()")
 
 
+def click_until(page, name: str, done, timeout: float = 40.0, what: str = ""):
+    """Click the button ``name`` and poll ``done()`` until it returns something truthy, which
+    is returned; clicked once more if nothing came after half the timeout. A DOM click that
+    lands while viser re-renders the panel (after a server update, which on a loaded machine
+    with software WebGL can take seconds) goes to a detached node and is lost, as a
+    person's click would be; a person clicks again, and so does this."""
+    for attempt in range(2):
+        click(page, name)
+        deadline = time.monotonic() + timeout / 2
+        while time.monotonic() < deadline:
+            result = done()
+            if result:
+                return result
+            time.sleep(0.2)
+    raise AssertionError(f"{what or name}: nothing after two clicks and {timeout:.0f} s")
+
+
 def upload(page, path, accept: str = "application/json") -> None:
     """Give a file to the upload button whose input accepts ``accept``."""
     page.locator(f'input[type=file][accept="{accept}"]').set_input_files(str(path))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 import time
 
-from conftest import click, set_field
+from conftest import click_until, set_field
 
 PRESET = "space_fur"  # 11 rows: the demo has 17
 
@@ -52,14 +52,11 @@ def test_e2e_two_tabs_have_separate_designs(studio, browser, shot):
     shot(a, "tab-a-edited")
     shot(b, "tab-b-untouched")
     # tab A shares its design by link; B opens it: a copy, in B's new session
-    click(a, "Share this design (link)")
-    deadline = time.monotonic() + 20
-    link = None
-    while link is None:
-        assert time.monotonic() < deadline, "no share link shown"
+    def shown_link():
         m = re.search(r"http://\S+/design/[0-9a-f]+", a.evaluate("() => document.body.innerText"))
-        link = m.group(0) if m else None
-        time.sleep(0.2)
+        return m.group(0) if m else None
+
+    link = click_until(a, "Share this design (link)", shown_link, what="the share link")
     b.goto(link)
     b.get_by_label("rows", exact=True).wait_for(timeout=60_000)
     deadline = time.monotonic() + 30
