@@ -78,7 +78,7 @@ def _scale_shape(shape: dict, s: float) -> dict:
     return shape
 
 
-def _chaser_parts(scene: dict, where: str):
+def chaser_parts(scene: dict, where: str):
     """(target, chaser, controller, brushes mounted on the chaser) of a detumble scene dict;
     SceneError when it is not one."""
     bodies = {b["name"]: b for b in scene["bodies"]}
@@ -100,7 +100,7 @@ def tip_reach(scene: dict) -> float:
     (:func:`keep_interference`), so the held tip interference stays the preset's."""
     from engine.model.layout import quat_to_matrix
 
-    _, chaser, ctl, mounted = _chaser_parts(scene, "(scene)")
+    _, chaser, ctl, mounted = chaser_parts(scene, "(scene)")
     brush = mounted[0]
     axis = np.asarray(ctl["position"], float)
     axis = axis / np.linalg.norm(axis)
@@ -112,7 +112,7 @@ def tip_reach(scene: dict) -> float:
 def keep_interference(scene: dict, reach_before: float) -> None:
     """Move the chaser's held offset and start (in place) by the change of
     :func:`tip_reach` from ``reach_before``: a longer bristle is held farther off."""
-    _, chaser, ctl, _ = _chaser_parts(scene, "(scene)")
+    _, chaser, ctl, _ = chaser_parts(scene, "(scene)")
     hold = np.asarray(ctl["position"], float)
     axis = hold / np.linalg.norm(hold)
     shift = tip_reach(scene) - reach_before
@@ -138,7 +138,7 @@ def detumble_scene(preset, *, size: float = 1.0, spin_deg: Optional[float] = Non
         from studio import presets
 
         scene = json.loads(presets.load_preset_or_file(preset).to_json())
-    target, chaser, ctl, mounted = _chaser_parts(scene, preset)
+    target, chaser, ctl, mounted = chaser_parts(scene, preset)
     brush = mounted[0]   # the presets' brushes share one design
     offset_hold = np.asarray(ctl["position"], float)
     axis = offset_hold / np.linalg.norm(offset_hold)
@@ -209,6 +209,15 @@ REDUCED_RECORD_INTERVAL = 1.0
 SPOT_MARGIN = 0.1            # s: the DEM spot check runs this much past its window
 #: channels of a reduced run: no bristles, so no nodes, root forces nor bending
 REDUCED_CHANNELS = ["bodies", "energy", "contacts"]
+
+
+def spot_scene(scene: dict, spot_s: float) -> dict:
+    """The DEM spot check's scene of a detumble scene dict: its first ``spot_s`` seconds (a
+    little past, :data:`SPOT_MARGIN`, so both runs' windows end there), with no stop rule."""
+    dem = json.loads(json.dumps(scene))
+    dem["run"]["duration"] = min(spot_s + SPOT_MARGIN, dem["run"]["duration"])
+    dem["run"].pop("stop", None)
+    return dem
 
 
 def reduced_scene(scene: dict, law: dict) -> dict:
@@ -480,11 +489,7 @@ def build_specs(options: "Options", grid: dict):
             params.update(fidelity="reduced", spot_check_s=spot or None)
             if spot:
                 # the DEM spot check: the same scenario's first seconds with the brush
-                dem = json.loads(json.dumps(scene))
-                # (a little past the window, so that both runs' windows end at `spot`)
-                dem["run"]["duration"] = min(spot + SPOT_MARGIN, dem["run"]["duration"])
-                dem["run"].pop("stop", None)
-                specs.append(RunSpec(run_id=run_id + "_dem_spot", scene=dem,
+                specs.append(RunSpec(run_id=run_id + "_dem_spot", scene=spot_scene(scene, spot),
                                      params=dict(params, fidelity="dem", spot_of=run_id),
                                      task=task))
             scene = reduced_scene(scene, law)
@@ -531,17 +536,6 @@ def reduce_options(options: "Options", length: Optional[float],
                           no_progress=options.no_progress)
 
 
-def _fitted_law(path: Path, digest: str) -> Optional[dict]:
-    """The law at ``path`` if it was fitted from the runs of ``digest``, else None."""
-    from engine.model.reduced_law import load_law
-
-    try:
-        law = load_law(path)
-    except (OSError, ValueError):
-        return None
-    return law if law.get("fit_digest") == digest else None
-
-
 def fit_laws(options: "Options", grid: dict, out: Path) -> dict:
     """``--fidelity reduced`` without ``--law``: each brush design's law, fitted by ``study
     reduce`` (its runs, fit and validation, through the same runner) into
@@ -549,34 +543,21 @@ def fit_laws(options: "Options", grid: dict, out: Path) -> dict:
     runs (``law.json``'s ``fit_digest``: a re-run reuses it, not refits it). Returns
     {design id: law dict, or the message of why it could not be fitted}."""
     from . import reduce
-    from .api import StudyInputError
 
     laws = {}
     for did, (length, diameter) in design_ids(options, grid).items():
         folder = out / LAWS_DIR / did
         what = f"no reduced law for brush design {did}"
-        ropts = reduce_options(options, length, diameter)
         try:
-            digest = reduce.fit_digest(ropts, reduce.design_of(ropts))
-        except (ValueError, KeyError, OSError) as exc:
+            law, reused = reduce.fit_or_reuse(
+                reduce_options(options, length, diameter), folder,
+                on_fit=lambda: print(f"law of brush design {did}: study reduce into {folder}"))
+        except (reduce.LawFitError, ValueError, KeyError, OSError) as exc:
             laws[did] = f"{what}: {exc}"
             continue
-        law = _fitted_law(folder / "law.json", digest)
-        if law is not None:
+        if reused:
             print(f"law of brush design {did}: {folder}/law.json (fitted before: reused)")
-            laws[did] = law
-            continue
-        print(f"law of brush design {did}: study reduce into {folder}")
-        folder.mkdir(parents=True, exist_ok=True)
-        try:
-            code = reduce._run_study(ropts, folder)
-        except (StudyInputError, ValueError) as exc:    # a fit with too few samples, ...
-            laws[did] = f"{what}: its fit failed ({exc}; {folder})"
-            continue
-        law = _fitted_law(folder / "law.json", digest) if code == 0 else None
-        laws[did] = law if law is not None else (
-            f"{what}: its study reduce failed (exit {code}; the failed runs in "
-            f"{folder}/outcomes.json)")
+        laws[did] = law
     return laws
 
 

@@ -26,10 +26,12 @@ history's RMS error. Outputs (``-o DIR``): ``law.json`` (the law file a scene re
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import math
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Literal, Optional
+from typing import Callable, Literal, Optional
 
 import numpy as np
 
@@ -570,6 +572,61 @@ def design_of(options: Options) -> dict:
     """The brush design ``options`` fit a law for (:func:`_design`)."""
     return _design(options.preset, options.rows, options.columns, options.n_nodes,
                    options.slide_axis, options.length, options.diameter)
+
+
+class LawFitError(RuntimeError):
+    """A brush design's law could not be fitted; the message says why and names the folder
+    of its runs."""
+
+
+def fitted_law(path: Path, digest: str) -> Optional[dict]:
+    """The law at ``path`` if it was fitted from the runs of ``digest``, else None."""
+    from engine.model.reduced_law import load_law
+
+    try:
+        law = load_law(path)
+    except (OSError, ValueError):
+        return None
+    return law if law.get("fit_digest") == digest else None
+
+
+@contextmanager
+def _locked(folder: Path):
+    """Hold ``folder``'s lock: one process fits a design's law, the others wait for it."""
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / ".lock", "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def fit_or_reuse(options: "Options", folder: Path,
+                 on_fit: Optional[Callable[[], None]] = None) -> tuple[dict, bool]:
+    """The law of ``options``' brush design in ``folder``: the ``law.json`` there when it was
+    fitted from the same runs (its ``fit_digest``), else fitted now by this study into
+    ``folder`` (``on_fit`` called first: a long fit announced). Under the folder's lock, so
+    concurrent callers for one design fit it once and the others reuse it. Returns (law,
+    reused); LawFitError when the fit fails, ValueError/KeyError/OSError when the design
+    cannot be read."""
+    folder = Path(folder)
+    digest = fit_digest(options, design_of(options))
+    with _locked(folder):
+        law = fitted_law(folder / "law.json", digest)
+        if law is not None:
+            return law, True
+        if on_fit is not None:
+            on_fit()
+        try:
+            code = _run_study(options, folder)
+        except (api.StudyInputError, ValueError) as exc:    # a fit with too few samples, ...
+            raise LawFitError(f"its fit failed ({exc}; {folder})") from None
+        law = fitted_law(folder / "law.json", digest) if code == 0 else None
+        if law is None:
+            raise LawFitError(f"its study reduce failed (exit {code}; the failed runs in "
+                              f"{folder}/outcomes.json)")
+        return law, False
 
 
 def add_parser(study_subparsers) -> None:

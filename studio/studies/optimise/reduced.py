@@ -24,11 +24,11 @@ stress): see docs/design.md.
 """
 from __future__ import annotations
 
-import fcntl
 import json
 import math
+import os
+import tempfile
 import time
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Optional
@@ -120,9 +120,9 @@ def check_base(base: dict, where: str) -> None:
     controller): StudyInputError naming what is missing."""
     import engine
 
-    from ..detumble import PRESETS, _chaser_parts
+    from ..detumble import PRESETS, chaser_parts
     try:
-        _chaser_parts(base, where)
+        chaser_parts(base, where)
     except engine.SceneError as exc:
         raise StudyInputError(
             f"--fidelity reduced runs hour-long detumbles: --preset {where!r} is "
@@ -146,60 +146,29 @@ def design_scene(base: dict, design: dict, scenario: DetumbleScenario, *,
                           offset=scenario.offset, duration=duration, n_nodes=nodes)
 
 
-def spot_scene(scene: dict, spot_s: float) -> dict:
-    """The DEM spot check's scene: the scenario's first ``spot_s`` seconds (a little past,
-    so both runs' windows end there), with no stop rule."""
-    from ..detumble import SPOT_MARGIN
-
-    dem = json.loads(json.dumps(scene))
-    dem["run"]["duration"] = min(spot_s + SPOT_MARGIN, dem["run"]["duration"])
-    dem["run"].pop("stop", None)
-    return dem
-
-
 # ----------------------------------------------------------------------------- the law
-@contextmanager
-def _locked(folder: Path):
-    """Hold the design folder's lock: one process fits a design's law, the others wait."""
-    folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / ".lock", "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
-
-
 def law_for(scene: dict, folder: Path, protocol: Optional[dict] = None) -> tuple[dict, bool]:
     """The reduced law of the brush of ``scene`` (a detumble scene dict of one design):
     fitted by ``study reduce`` (its defaults, updated by ``protocol``: reduce's option
-    names) into ``folder``, or the one there fitted from the same runs. Returns (law,
-    reused). RuntimeError when the fit fails, naming the folder."""
+    names) into ``folder``, or the one there fitted from the same runs
+    (:func:`studio.studies.reduce.fit_or_reuse`: one fit per design, under the folder's
+    lock). Returns (law, reused). RuntimeError when the fit fails, naming the folder."""
     from .. import reduce
-    from ..detumble import _fitted_law
-    from ..api import StudyInputError as ReduceInputError
 
     folder = Path(folder)
-    with _locked(folder):
-        design_file = folder / "design_scene.json"
-        if not design_file.is_file():
-            design_file.write_text(json.dumps(scene, indent=1))
-        ropts = reduce.Options(preset=str(design_file), workers=1, no_progress=True,
-                               **(protocol or {}))
-        digest = reduce.fit_digest(ropts, reduce.design_of(ropts))
-        law = _fitted_law(folder / "law.json", digest)
-        if law is not None:
-            return law, True
-        try:
-            code = reduce._run_study(ropts, folder)
-        except (ReduceInputError, ValueError) as exc:
-            raise RuntimeError(f"the design's reduced law could not be fitted ({exc}; "
-                               f"{folder})") from None
-        law = _fitted_law(folder / "law.json", digest) if code == 0 else None
-        if law is None:
-            raise RuntimeError(f"the design's study reduce failed (exit {code}; its runs in "
-                               f"{folder}/outcomes.json)")
-        return law, False
+    folder.mkdir(parents=True, exist_ok=True)
+    design_file = folder / "design_scene.json"
+    # every run of the design writes the same scene: each through its own temporary file,
+    # renamed into place, so a reader never sees part of one
+    with tempfile.NamedTemporaryFile("w", dir=folder, suffix=".tmp", delete=False) as fh:
+        json.dump(scene, fh, indent=1)
+    os.replace(fh.name, design_file)
+    ropts = reduce.Options(preset=str(design_file), workers=1, no_progress=True,
+                           **(protocol or {}))
+    try:
+        return reduce.fit_or_reuse(ropts, folder)
+    except reduce.LawFitError as exc:
+        raise RuntimeError(f"the design's reduced law: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- the task

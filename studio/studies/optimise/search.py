@@ -23,8 +23,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
-
 from .errors import StudyInputError
 from .metrics import (NEEDS_CHASER_MASS, RUN_KEYS, aggregate, parse_constraint,
                       parse_objective)
@@ -187,7 +185,8 @@ class Problem:
         """A reduced design's runs (each fits or reuses the law in ``laws/<key>/``), or
         with ``spot`` its DEM spot checks (the first ``spot_check_s`` s of each scenario)."""
         from ..runner import RunSpec
-        from .reduced import SPOT_TASK, spot_scene
+        from ..detumble import spot_scene
+        from .reduced import SPOT_TASK
 
         specs = []
         for s in self.scenarios:
