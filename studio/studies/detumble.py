@@ -43,7 +43,8 @@ from pydantic import Field
 
 from . import api
 from .options import StudyOptions
-from .detumble_analysis import CHASER, CONTROLLER, TARGET, analyse, plot_omega, read_detumble
+from .detumble_analysis import (CHASER, CONTROLLER, DEFAULT_ISP, TARGET, analyse, plot_omega,
+                                read_detumble)
 
 PRESETS = ("detumble_upper_stage", "detumble_box_satellite")
 #: bending stress limits of the bristle materials, Pa (the scene model has no strength):
@@ -382,7 +383,7 @@ def detumble_task(scene, h5_path: Path, params: dict) -> dict:
     api.check_cancel()
     data = read_detumble(h5_path)
     out = analyse(data, params["threshold"], params["stress_limit"],
-                  isp=params.get("isp", 220.0), drift_time=params.get("drift_time", 3600.0),
+                  isp=params.get("isp", DEFAULT_ISP), drift_time=params.get("drift_time", 3600.0),
                   sn_curve=params.get("sn_curve"))
     out.update(pressure_figures(system, out["peak_target_force"],
                                 peak.peak if peak is not None else None))
@@ -672,9 +673,10 @@ class Options(StudyOptions):
                                  description="tolerance sweep: the hold point moved across the "
                                              "surface's motion (default 0)",
                                  json_schema_extra={"metavar": "M", "unit": "m"})
-    isp: float = Field(220.0, gt=0,
-                       description="specific impulse of the chaser's thrusters (default 220, a "
-                                   "hydrazine monopropellant class): the propellant figures, "
+    isp: float = Field(DEFAULT_ISP, gt=0,
+                       description=f"specific impulse of the chaser's thrusters (default "
+                                   f"{DEFAULT_ISP:g}, a hydrazine monopropellant class): the "
+                                   "propellant figures, "
                                    "for per-axis and gimballed thrusters",
                        json_schema_extra={"metavar": "S", "unit": "s"})
     sn_curve: Optional[str] = Field(

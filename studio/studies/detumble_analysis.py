@@ -30,6 +30,8 @@ from .chaser_loads import brush_load_on_body, peak_magnitude, wheel_momentum
 TARGET = "target"
 CHASER = "chaser"
 CONTROLLER = "chaser_control"
+#: s: the chaser thrusters' specific impulse unless told (a hydrazine monopropellant class)
+DEFAULT_ISP = 220.0
 
 
 def detumble_time(time: np.ndarray, speed: np.ndarray, threshold: float) -> Optional[float]:
@@ -135,7 +137,7 @@ def read_detumble(h5_path: Path) -> dict:
     return d
 
 
-def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = 220.0,
+def analyse(d: dict, threshold: float, stress_limit: float, *, isp: float = DEFAULT_ISP,
             drift_time: float = 3600.0, sn_curve: str | None = None) -> dict:
     """The run's summary (JSON-able) from :func:`read_detumble`'s arrays; with the bristles'
     stress histories, their fatigue figures (``sn_curve``: the S–N points,
@@ -223,7 +225,7 @@ def propellant_mass(mass: float, delta_v: float, isp: float) -> float:
     return mass * (1.0 - math.exp(-delta_v / (isp * G0)))
 
 
-def designer_figures(d: dict, *, isp: float = 220.0, drift_time: float = 3600.0) -> dict:
+def designer_figures(d: dict, *, isp: float = DEFAULT_ISP, drift_time: float = 3600.0) -> dict:
     """The mission designer's figures of a run (issue 25 item 6):
 
     * ``peak_chaser_torque_com`` / ``sliding_chaser_torque_com``: the brush's moment on the

@@ -53,6 +53,11 @@ def test_scenarios_are_detumbles_of_the_preset_for_an_hour_by_default():
     assert {s.task for s in spot} == {reduced.SPOT_TASK}
     assert all(s.scene["run"]["duration"] == pytest.approx(5.0 + detumble.SPOT_MARGIN)
                for s in spot)
+    # the thrusters' specific impulse (the propellant metric) reaches every run's task
+    assert {s.params["isp"] for s in specs + spot} == {220.0}
+    p = Problem.from_options(_options(isp=300.0))
+    assert {s.params["isp"] for s in p.specs({LENGTH: 0.15})
+            + p.specs({LENGTH: 0.15}, refined=True)} == {300.0}
 
 
 @pytest.mark.parametrize("bad, words", [
@@ -70,9 +75,9 @@ def test_bad_reduced_options_are_refused_naming_the_option(bad, words):
 
 
 def test_a_dem_search_refuses_the_reduced_scenario_options():
-    with pytest.raises(StudyInputError, match="--sizes, --spot-check-s: an option of "
+    with pytest.raises(StudyInputError, match="--sizes, --spot-check-s, --isp: an option of "
                                               "--fidelity reduced"):
-        Problem.from_options(Options(sizes=[2.0], spot_check_s=3.0))
+        Problem.from_options(Options(sizes=[2.0], spot_check_s=3.0, isp=300.0))
     # and a dem search keeps its defaults (3 nodes, 0.4 s), so old searches resume
     p = Problem.from_options(Options())
     assert (p.nodes, p.duration, p.fidelity) == (3, 0.4, "dem")

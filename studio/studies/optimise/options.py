@@ -10,6 +10,7 @@ from typing import Literal, Optional
 
 from pydantic import Field
 
+from ..detumble_analysis import DEFAULT_ISP
 from ..options import StudyOptions
 
 
@@ -114,6 +115,9 @@ class Options(StudyOptions):
                                 "DEM spot check, the first seconds of each scenario with "
                                 "the DEM brush against its reduced run (0: none)",
                                 json_schema_extra={"unit": "s"})
+    isp: float = Field(DEFAULT_ISP, gt=0, description="--fidelity reduced: specific impulse "
+                       "of the chaser's thrusters, for the propellant_mass metric",
+                       json_schema_extra={"unit": "s"})
     refine: bool = Field(True, description="re-run the winner with twice the nodes and half "
                                            "the time step and report whether it holds")
     search_seed: int = Field(0, ge=0, description="seed of the Optuna sampler")

@@ -55,7 +55,7 @@ METRICS = {
     "peak_force": "largest contact force on the target, N",
     "peak_torque": "largest contact torque on the target about its centre of mass, N m",
     "chaser_delta_v": "Delta-v of the chaser's thrusters, integral |F| dt / m (gimballed), m/s",
-    "propellant_mass": "propellant for that Delta-v at the detumble preset's Isp (220 s), kg",
+    "propellant_mass": "propellant for that Delta-v at --isp (default 220 s), kg",
     "wheel_momentum": "largest |angular impulse| the chaser's attitude control stores, N m s",
     "peak_chaser_torque": "largest moment of the brush's load about the chaser's centre of "
                           "mass, N m",
@@ -192,7 +192,7 @@ def reduced_metrics(scene, h5_path: Path, params: dict) -> dict:
     c1 = time.process_time()
     summary = detumble_task(engine.parse_scene(red), h5_path,
                             {"threshold": REST_FRACTION, "stress_limit": 1.0,
-                             "fidelity": "reduced"})
+                             "fidelity": "reduced", "isp": params["isp"]})
     sim_cpu = time.process_time() - c1
     out = {k: v for k, v in summary.items() if k not in ("patches",)}
     out.update(metrics_of(summary), brush_mass=brush_mass(scene), law_reused=reused,

@@ -38,7 +38,7 @@ DEM_DURATION = 0.4    # s: a DEM search run at most (--duration-s)
 FIDELITY_OPTIONS = {"dem": ("cubes_mm", "spin_rates", "configs", "tumbling", "density",
                             "material_draws", "chaser_mass_kg"),
                     "reduced": ("sizes", "spins_deg", "tilts_deg", "tumbles", "offsets_m",
-                                "spot_check_s")}
+                                "spot_check_s", "isp")}
 
 
 @dataclass
@@ -63,6 +63,7 @@ class Problem:
     fidelity: str = "dem"
     spot_check_s: float = 0.0       # reduced: the winner's DEM spot check, s
     protocol: Optional[dict] = None  # reduced: study reduce's options for the fits
+    isp: Optional[float] = None     # reduced: the thrusters' specific impulse, s
     run_keys: tuple = RUN_KEYS      # what a trial keeps of each scenario run
 
     @property
@@ -119,7 +120,7 @@ class Problem:
                       options.duration_s or DEFAULT_DURATION, options.stiffness_via,
                       options.stress_limit_mpa * 1e6, target="target", full_run=True,
                       task=RTASK, fidelity="reduced",
-                      spot_check_s=options.spot_check_s, run_keys=KEYS)
+                      spot_check_s=options.spot_check_s, isp=options.isp, run_keys=KEYS)
         problem._check_corners()
         return problem
 
@@ -196,10 +197,12 @@ class Problem:
                 specs.append(RunSpec(f"{key}_spot_{s.scenario_id}",
                                      spot_scene(scene, self.spot_check_s),
                                      dict(params, threshold=0.05, fidelity="dem",
-                                          stress_limit=self.stress_limit), SPOT_TASK))
+                                          stress_limit=self.stress_limit, isp=self.isp),
+                                     SPOT_TASK))
             else:
                 specs.append(RunSpec(f"{key}_{s.scenario_id}", scene,
-                                     dict(params, law_key=key, protocol=self.protocol),
+                                     dict(params, law_key=key, protocol=self.protocol,
+                                          isp=self.isp),
                                      self.task))
         return specs
 
