@@ -191,6 +191,34 @@ class _Surfaces:
                     points=np.concatenate(self.points) if K else np.zeros((1, 3)))
 
 
+def _face_regions(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """The face-connected regions of the True cells of a 3-D ``mask``: (a label per cell,
+    flat in C order, 0 for a False cell and 1..n for the regions; n). The connected
+    components of the graph of face neighbours (``scipy.sparse.csgraph``, which the process
+    has already imported with scipy.linalg; ``scipy.ndimage.label`` gives the same regions
+    but its import costs about 0.15 CPU-s of every build with a mesh body)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    cells = np.flatnonzero(mask)
+    index = np.full(mask.size, -1, np.int64)
+    index[cells] = np.arange(len(cells))
+    ids = index.reshape(mask.shape)
+    rows, cols = [], []
+    for axis in range(3):      # the pairs of face neighbours along each axis, both True
+        lo = ids[tuple(slice(0, -1) if a == axis else slice(None) for a in range(3))]
+        hi = ids[tuple(slice(1, None) if a == axis else slice(None) for a in range(3))]
+        both = (lo >= 0) & (hi >= 0)
+        rows.append(lo[both])
+        cols.append(hi[both])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(r), np.int8), (r, c)), shape=(len(cells), len(cells)))
+    n, comp = connected_components(graph, directed=False)
+    labels = np.zeros(mask.size, np.int64)
+    labels[cells] = comp + 1
+    return labels, int(n)
+
+
 def classify_empty_cells(bd: Bodies) -> None:
     """Fill ``bd.grid_side`` for each watertight mesh body: every grid cell that no triangle's
     box overlaps is marked inside or outside the body. The surface passes through none of
@@ -199,8 +227,6 @@ def classify_empty_cells(bd: Bodies) -> None:
     on one side, which one exact test at one cell's centre (``deep_closest``) decides. The
     contact search then knows a point in an empty outside cell is outside without looking
     for its closest triangle (``engine.kernels.body_contacts.deep_closest``)."""
-    from scipy import ndimage
-
     for k in range(len(bd.pos)):
         if not bd.watertight[k] or bd.sphere_r[k] > 0.0:
             continue
@@ -210,8 +236,7 @@ def classify_empty_cells(bd: Bodies) -> None:
         empty = (np.diff(bd.grid_start[base:base + n + 1]) == 0).reshape(dims)
         if not empty.any():
             continue
-        labels, n_regions = ndimage.label(empty)  # face connectivity (the default in 3D)
-        flat = labels.ravel()
+        flat, n_regions = _face_regions(empty)
         regions, first = np.unique(flat, return_index=True)
         side = np.zeros(n_regions + 1, np.int8)
         for region, cell_id in zip(regions, first):

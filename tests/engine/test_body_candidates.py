@@ -257,6 +257,26 @@ def test_nearest_triangle_and_inside_test_match_trimesh():
             assert inside == (ref > 1e-12) or abs(ref) < 1e-12
 
 
+@pytest.mark.parametrize("shape", [(1, 1, 1), (5, 1, 7), (8, 9, 10), (3, 30, 2)])
+def test_empty_cell_regions_are_the_face_connected_components(shape):
+    """The regions the build's side marking tests once each are scipy.ndimage.label's
+    face-connected components (its default 3-D structure), cell for cell."""
+    from scipy import ndimage
+
+    from engine.assembly.bodies import _face_regions
+
+    rng = np.random.default_rng(len(shape) * shape[1])
+    for fill in (0.0, 0.2, 0.5, 0.8, 1.0):
+        mask = rng.random(shape) < fill
+        got, n = _face_regions(mask)
+        ref, n_ref = ndimage.label(mask)
+        assert n == n_ref and got.shape == (mask.size,)
+        assert np.array_equal(got == 0, ~mask.ravel())
+        # one label of ours for each of the reference's, and no label shared
+        pairs = set(zip(got[mask.ravel()].tolist(), ref.ravel()[mask.ravel()].tolist()))
+        assert len(pairs) == n
+
+
 def test_wedge_run_forces_equal_with_every_segment_listed():
     """A short press of the wedge into the brush (0.2 m/s for 7.5 ms, 1.5 mm into the tips)
     with the default skin and with a 6 mm skin, where the list also holds every segment within
