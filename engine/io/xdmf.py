@@ -19,7 +19,23 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Optional, Union
+from typing import NamedTuple, Optional, Union
+
+import numpy as np
+
+
+class _Meta(NamedTuple):
+    """What the description needs of a dataset (its path, shape and type), read once: each
+    h5py property access costs tens of microseconds, and a description has hundreds of
+    frames."""
+
+    name: str
+    shape: tuple
+    dtype: np.dtype
+
+
+def _meta(dataset) -> _Meta:
+    return _Meta(dataset.name, tuple(dataset.shape), dataset.dtype)
 
 
 def _number(dtype) -> tuple[str, int]:
@@ -74,7 +90,10 @@ def write_xdmf(h5_path: Union[str, Path], xdmf_path: Optional[Union[str, Path]] 
         domain = ET.SubElement(root, "Domain")
         wrote = False
         if "nodes/positions" in f and "bonds/nodes" in f:
-            pos, bonds = f["nodes/positions"], f["bonds/nodes"]
+            pos, bonds = _meta(f["nodes/positions"]), _meta(f["bonds/nodes"])
+            radius = _meta(f["nodes/radius"]) if "nodes/radius" in f else None
+            moment = (_meta(f["bonds/bending_moment"]) if "bonds/bending_moment" in f
+                      else None)
             n_bonds = bonds.shape[0]
             series = ET.SubElement(domain, "Grid", Name="bristles", GridType="Collection",
                                    CollectionType="Temporal")
@@ -86,35 +105,37 @@ def write_xdmf(h5_path: Union[str, Path], xdmf_path: Optional[Union[str, Path]] 
                 _whole(topo, bonds, h5name)
                 geo = ET.SubElement(g, "Geometry", GeometryType="XYZ")
                 _slab(geo, pos, i, h5name)
-                if "nodes/radius" in f:
+                if radius is not None:
                     a = ET.SubElement(g, "Attribute", Name="radius", AttributeType="Scalar",
                                       Center="Node")
-                    _whole(a, f["nodes/radius"], h5name)
-                if "bonds/bending_moment" in f:
+                    _whole(a, radius, h5name)
+                if moment is not None:
                     a = ET.SubElement(g, "Attribute", Name="bending_moment",
                                       AttributeType="Scalar", Center="Cell")
-                    _slab(a, f["bonds/bending_moment"], i, h5name)
+                    _slab(a, moment, i, h5name)
             wrote = True
         for name in (f["bodies"] if "bodies" in f else {}):
             body = f["bodies"][name]
             if not hasattr(body, "keys") or "vertices" not in body or "triangles" not in body:
                 continue
+            tris, verts = _meta(body["triangles"]), _meta(body["vertices"])
+            pose = [(channel, _meta(body[channel])) for channel in ("position", "orientation")
+                    if channel in body]
             series = ET.SubElement(domain, "Grid", Name=f"body_{name}", GridType="Collection",
                                    CollectionType="Temporal")
             for i in range(n):
                 g = ET.SubElement(series, "Grid", Name=f"body_{name}_{i}", GridType="Uniform")
                 ET.SubElement(g, "Time", Value=repr(float(times[i])))
                 topo = ET.SubElement(g, "Topology", TopologyType="Triangle",
-                                     NumberOfElements=str(body["triangles"].shape[0]))
-                _whole(topo, body["triangles"], h5name)
+                                     NumberOfElements=str(tris.shape[0]))
+                _whole(topo, tris, h5name)
                 geo = ET.SubElement(g, "Geometry", GeometryType="XYZ")
-                _whole(geo, body["vertices"], h5name)
-                for channel in ("position", "orientation"):
-                    if channel in body:
-                        a = ET.SubElement(g, "Attribute", Name=channel, Center="Grid",
-                                          AttributeType="Vector" if channel == "position"
-                                          else "Matrix")
-                        _slab(a, body[channel], i, h5name)
+                _whole(geo, verts, h5name)
+                for channel, data in pose:
+                    a = ET.SubElement(g, "Attribute", Name=channel, Center="Grid",
+                                      AttributeType="Vector" if channel == "position"
+                                      else "Matrix")
+                    _slab(a, data, i, h5name)
             wrote = True
         if not wrote:
             return None
