@@ -751,3 +751,67 @@ def test_no_allocation_in_hot_loop():
     # per-call overhead (argument boxing) is constant; any per-iteration allocation would
     # make the 10 000-iteration call allocate >= 9 990 more than the 10-iteration one
     assert many == few, (few, many)
+
+
+_SOURCE_RUN = r"""
+import importlib.util, sys
+import numpy as np
+spec = importlib.util.spec_from_file_location("geometry_source", sys.argv[1])
+geo = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(geo)
+P = np.load(sys.argv[2])
+out = [geo.segment_triangle_closest(*p) + geo.segment_segment_closest(*p[:4])
+       + geo.point_triangle_closest(p[0], p[2], p[3], p[4]) for p in P]
+np.save(sys.argv[3], np.array(out, dtype=np.float64))
+"""
+
+
+def _awkward_inputs(n, rng):
+    """Segment-triangle inputs (p0, p1, a, b, c) near the routines' branch points: points,
+    near-points, degenerate triangles, segments parallel to an edge or to the plane, ends on
+    a vertex or an edge, crossings, and plain random ones."""
+    P = rng.normal(size=(n, 5, 3)) * 0.05
+    for i in range(n):
+        p = P[i]
+        m = i % 8
+        if m == 0:
+            p[1] = p[0]
+        elif m == 1:
+            p[1] = p[0] + rng.normal(size=3) * 1e-12
+        elif m == 2:
+            p[4] = p[2] + (p[3] - p[2]) * 0.5
+        elif m == 3:
+            p[1] = p[0] + (p[3] - p[2])
+        elif m == 4:
+            p[1] = p[0] + np.cross(np.cross(p[3] - p[2], p[4] - p[2]), rng.normal(size=3))
+        elif m == 5:
+            p[0] = p[2]
+        elif m == 6:
+            p[0] = 0.5 * (p[2] + p[3])
+            p[1] = p[0] + rng.normal(size=3) * 0.01
+    return P
+
+
+def test_compiled_routines_equal_their_python_source_bit_for_bit(tmp_path):
+    """The compiled closest-point routines (their inner steps inlined into one another,
+    ``_jit_inline``) give the very bits the Python source gives, run by the interpreter with
+    numba's JIT off (IEEE double, one rounding per operation): a fastmath flag, a fused
+    multiply-add or any reordering of the inlined arithmetic would change some of these 1,600
+    awkward cases by an ulp, and then the wedge curve, which is chaotic at one ulp (the
+    bristle-body search and the bristle-bristle contacts call these routines)."""
+    import os
+    import subprocess
+    import sys
+
+    P = _awkward_inputs(1600, np.random.default_rng(RNG_SEED + 7))
+    np.save(tmp_path / "inputs.npy", P)
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    path = pathlib.Path(geo.__file__)
+    subprocess.run([sys.executable, "-c", _SOURCE_RUN, str(path), str(tmp_path / "inputs.npy"),
+                    str(tmp_path / "source.npy")], env=env, check=True, timeout=120)
+    want = np.load(tmp_path / "source.npy")
+    got = np.array([geo.segment_triangle_closest(*p) + geo.segment_segment_closest(*p[:4])
+                    + geo.point_triangle_closest(p[0], p[2], p[3], p[4]) for p in P])
+    assert got.shape == want.shape
+    # bit for bit (NaN-free inputs; -0.0 and 0.0 told apart through the bit patterns)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
