@@ -15,7 +15,7 @@ import math
 from numba import njit, prange
 
 from .bodies import FIXED, KINEMATIC, push_body
-from .bonds import PARALLEL_MIN
+from .bonds import PARALLEL_MIN_CANDIDATES
 from .contact_law import (HISTORY_COLUMNS, adhesion, clear_history, contact_force,
                           contact_with_history, normal_stiffness, smoothstep)
 from .contacts import add_segment_force, segment_point_velocity
@@ -452,7 +452,7 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
             grid_start, grid_tris, grid_side)
     tabs = (E, mu_table, kt_table, zeta_table, adh_table)
     out = (active, fc, cp, par_s, energy, diss, overlap_ratio, xf)
-    if n_cand >= PARALLEL_MIN:
+    if n_cand >= PARALLEL_MIN_CANDIDATES:
         for c in prange(n_cand):
             _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction,
                                     dt)

@@ -40,7 +40,17 @@ from .rotations import qmul, qrot, qrot_inv
 # call, on the shared 2-core test machine): 16 items 1.0 serial / 2.5 prange with 1 thread,
 # 1.0 / 18.4 with 2 (the idle worker spins); 512 items 4.5 / 44 with 2; 4096 items 19 / 26;
 # 65536 items 194 / 232 (the serial loop of a big scene leaves the second core idle).
+# A prange pays once a call holds some tens of microseconds of work, so the threshold is
+# counted in items of each kernel's own cost: PARALLEL_MIN for the light per-node kernels
+# (a few ns a node) and the pairs; PARALLEL_MIN_BONDS nodes for the bonds (about 0.1 us a
+# node); PARALLEL_MIN_CANDIDATES for the bristle-body candidates (about 1 us each), which
+# with the old common 4096 stayed serial on every brush below 4096 bristles and took half a
+# box-pressed step on one core while the other waited (benchmarks/threads.py). (A kernel
+# cannot ask numba for its thread count and stay cached, so with one thread a prange loop
+# runs on that one: about 1.5 us a call more than the serial twin.)
 PARALLEL_MIN = 4096
+PARALLEL_MIN_BONDS = 1024
+PARALLEL_MIN_CANDIDATES = 64
 NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 
@@ -54,7 +64,7 @@ def bond_forces(x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
     ``bond_node_forces``; this per-bond form serves energy evaluations outside it.
     """
     nb = bi.shape[0]
-    if nb >= PARALLEL_MIN:
+    if nb >= PARALLEL_MIN_BONDS:
         for b in prange(nb):
             _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bf, bti, btj,
                   benergy, bdiss, bbend, damped, want_energy, dt)
@@ -100,7 +110,7 @@ def bond_node_forces(nd, bn, damped, want_energy, dt):
     cn, cs, cb, ct = bn.cn, bn.cs, bn.cb, bn.ct
     benergy, bdiss, bbend = bn.energy, bn.diss, bn.bend
     n = f.shape[0]
-    if n >= PARALLEL_MIN:
+    if n >= PARALLEL_MIN_BONDS:
         nchunk = (n + NODE_CHUNK - 1) // NODE_CHUNK
         for c in prange(nchunk):
             _bond_chunk(c * NODE_CHUNK, min(n, (c + 1) * NODE_CHUNK), x, v, q, w, bi, bj, kn,
