@@ -45,12 +45,13 @@ from .rotations import qmul, qrot, qrot_inv
 # (a few ns a node) and the pairs; PARALLEL_MIN_BONDS nodes for the bonds (about 0.1 us a
 # node); PARALLEL_MIN_CANDIDATES for the bristle-body candidates (about 1 us each), which
 # with the old common 4096 stayed serial on every brush below 4096 bristles and took half a
-# box-pressed step on one core while the other waited (benchmarks/threads.py). (A kernel
-# cannot ask numba for its thread count and stay cached, so with one thread a prange loop
-# runs on that one: about 1.5 us a call more than the serial twin.)
+# box-pressed step on one core while the other waited (benchmarks/threads.py). A kernel
+# cannot ask numba for its thread count and stay cached, so with one thread (a study's
+# workers) a prange loop runs on that one thread, about 1.5 us a call more than the serial
+# twin: from 256 candidates (some 250 us of work) that is under 1 %.
 PARALLEL_MIN = 4096
 PARALLEL_MIN_BONDS = 1024
-PARALLEL_MIN_CANDIDATES = 64
+PARALLEL_MIN_CANDIDATES = 256
 NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 
