@@ -34,11 +34,11 @@ def test_two_threads_give_the_one_thread_bits(pressed_brush):
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        engine.run(system, until=0.0025, output=False)
+        engine.run(system, until=0.0012, output=False)
         n_cand = int(system.body_pairs.n[0])
         assert n_cand >= PARALLEL_MIN_CANDIDATES  # the box is on the tips
         snap = system.save_state()
-        end = system.time + 200 * system.dt
+        end = system.time + 100 * system.dt
         engine.run(system, until=end, output=False)
         serial = _observed(system)
         system.restore_state(snap)
