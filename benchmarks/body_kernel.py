@@ -12,8 +12,11 @@ of this process), the median of ``--repeats``. Printed, in ns per candidate:
 * ``frame``: the candidate loop with only the segment's transform into the body frame;
 * ``search``: ``frame`` plus the closest-feature searches of the narrow phase (a node's
   triangle within its radius for slots 0 and 1, the segment's within the larger radius for
-  slot 2): one walk of the body's grid per candidate (``closest_features``), or a walk per
-  query (``closest_triangle``) on an engine without it; none of the law;
+  slot 2) as the narrow phase makes them: from the candidate's face of the last step where
+  that face's plane settles them (``supported_face``, the hint the narrow phase keeps: the
+  loop above has just set it), else one walk of the body's grid (``closest_features``), or
+  a walk per query (``closest_triangle``) on an engine without either; none of the law;
+* ``walk``: ``search`` with the walk for every candidate (an engine with the face hint);
 * ``law`` = narrow - search: the contact law (normal force, damping, friction with history,
   fade forces), and the call of the per-candidate kernel (which ``search`` makes inline);
 * ``scatter``: ``scatter_bristle_body`` (the forces into nodes and bodies, serial);
@@ -166,11 +169,17 @@ def _search_walks(nd, bn, bl, bd, reps):
     return tot
 
 
-def _search_one_walk():
+def _search_one_walk(hinted):
     """``_search_walks`` with the one-walk search of this engine (``closest_features``),
     compiled only where the engine has it (so that this script also times an engine
-    without it, through ``_search_walks``)."""
+    without it, through ``_search_walks``); ``hinted``: first, as the narrow phase does,
+    the candidate's face of the last step where it settles the queries
+    (``supported_face``, on an engine that has it)."""
     from engine.kernels.body_contacts import closest_features
+    if hinted:
+        from engine.kernels.body_contacts import supported_face
+    else:
+        supported_face = None
 
     @njit
     def search(nd, bn, bl, bd, reps):
@@ -194,6 +203,13 @@ def _search_one_walk():
                                                x[i1, 2] - bd.pos[k, 2])
                 if bd.sphere_r[k] > 0.0:
                     continue
+                if hinted:
+                    h = supported_face(bl.face[c], k, l0, l1, rad[i0], rad[i1],
+                                       max(rad[i0], rad[i1]), not has_next[sg], bd.verts,
+                                       bd.tris, bd.tnormal, bd.tsupport)
+                    if h[0]:
+                        tot += (h[5] if h[1] >= 0 else 0.0) + (h[10] if h[6] >= 0 else 0.0)
+                        continue
                 r = closest_features(k, l0, l1, rad[i0], rad[i1], max(rad[i0], rad[i1]),
                                      not has_next[sg], bd.verts, bd.tris, bd.tnormal,
                                      bd.tedge, bd.grid_origin, bd.grid_cell, bd.grid_dims,
@@ -205,10 +221,16 @@ def _search_one_walk():
 
 
 def _search_kernel():
+    """(the search as the narrow phase makes it, how), (the walk alone, how) or None."""
     try:
-        return _search_one_walk(), "one walk (closest_features)"
+        walk = _search_one_walk(False), "one walk (closest_features)"
     except ImportError:
-        return _search_walks, "a walk per query (closest_triangle)"
+        return (_search_walks, "a walk per query (closest_triangle)"), None
+    try:
+        return (_search_one_walk(True), "last step's face where it settles them "
+                "(supported_face), else one walk"), walk
+    except ImportError:
+        return walk, None
 
 
 def _timed(fn, repeats, inner):
@@ -235,7 +257,7 @@ def measure(name, system, out, repeats):
     stats = np.zeros(5)
     inner = max(1, int(4e5 // max(n, 1)))
     skin = float(system.limits[3])
-    search, how = _search_kernel()
+    (search, how), walk = _search_kernel()
     t_narrow = _timed(lambda r: _narrow_loop(nd, bn, bl, bd, tb, fl.friction_body, dt, ft0, r),
                       repeats, inner)
     bl.ft[:n * BSLOT] = ft0
@@ -245,6 +267,7 @@ def measure(name, system, out, repeats):
     t_scatter = _timed(lambda r: _scatter_loop(nd, bn, bl, bd, stats, r), repeats, inner)
     t_frame = _timed(lambda r: _frame_only(nd, bn, bl, bd, r), repeats, inner)
     t_search = _timed(lambda r: search(nd, bn, bl, bd, r), repeats, inner)
+    t_walk = _timed(lambda r: walk[0](nd, bn, bl, bd, r), repeats, inner) if walk else None
     t_rebuild = _timed(lambda r: _rebuild_loop(nd, bn, bd, bl, skin, r), repeats,
                        max(1, inner // 4))
     bl.ft[:n * BSLOT] = ft0
@@ -267,6 +290,8 @@ def measure(name, system, out, repeats):
     print(f"  narrow  {t_narrow * ns:8.1f} ns/candidate  ({t_narrow * 1e6:.1f} us per call)")
     print(f"    frame   {t_frame * ns:8.1f}")
     print(f"    search  {(t_search - t_frame) * ns:8.1f}  (closest features, {how})")
+    if walk:
+        print(f"    walk    {(t_walk - t_frame) * ns:8.1f}  (the search by {walk[1]} alone)")
     print(f"    law     {(t_narrow - t_search) * ns:8.1f}  (narrow - search: law and kernel call)")
     print(f"  scatter {t_scatter * ns:8.1f} ns/candidate")
     print(f"  rebuild {t_rebuild * ns:8.1f} ns/candidate per rebuild")

@@ -26,7 +26,11 @@ Bodies = namedtuple("Bodies", [
     "sphere_r", "bound_r", "watertight", "material", "collide", "pos_build", "q_build", "pos0",
     "verts", "tris", "tnormal", "tedge", "pnormal", "grid_origin", "grid_cell", "grid_dims", "grid_base",
     "grid_start", "grid_side",
-    "grid_tris", "ft_bb", "scratch", "scratch2",
+    "grid_tris",
+    # per triangle: its body's index where the triangle's plane supports that body's mesh (no
+    # vertex in front of it: a face of a convex body), else -1 (body_contacts.supported_face)
+    "tsupport",
+    "ft_bb", "scratch", "scratch2",
     # mesh-mesh contacts (engine.kernels.mesh_contact): first contact point of each body (K + 1),
     # the points (body frames), per-pair point stiffness (K, K; 0 = the pair does not touch)
     # and length, tangential history per (point, other body)
@@ -41,7 +45,10 @@ PairList = namedtuple("PairList", [
 
 BodyList = namedtuple("BodyList", [
     "s", "b", "ft", "active", "fc", "cp", "par", "energy", "diss", "ratio", "local", "n",
-    "s2", "b2", "ft2", "xf", "deep", "deep2"])
+    "s2", "b2", "ft2", "xf", "deep", "deep2",
+    # per candidate: the triangle that settled its closest-feature queries last step, a hint
+    # checked before use (body_contacts.supported_face); -1 after each rebuild
+    "face"])
 
 Loads = namedtuple("Loads", [
     "node", "load", "force", "start", "times", "values", "frequency", "phase", "amp"])

@@ -113,6 +113,7 @@ class _Surfaces:
     def __init__(self, K: int):
         self.verts, self.tris, self.normals, self.pnormals = [], [], [], []
         self.edges = []
+        self.support = []
         self.grid_origin = np.zeros((K, 3))
         self.grid_cell = np.ones(K)
         self.grid_dims = np.ones((K, 3), np.int64)
@@ -136,6 +137,7 @@ class _Surfaces:
         nrm[good] /= ln[good, None]
         nrm[~good] = 0.0
         self.normals.append(nrm)
+        self.support.append(np.where(meshes.supporting_faces(vp, tris, nrm), k, -1))
         self.pnormals.append(meshes.pseudo_normals(vp, tris))
         self.edges.append(meshes.edge_normals(vp, tris))
         origin, cell, dims, start, gtris = meshes.triangle_grid(vp, tris)
@@ -166,6 +168,7 @@ class _Surfaces:
             normals = np.concatenate(self.normals)
             pnormals = np.concatenate(self.pnormals)
             edges = np.concatenate(self.edges)
+            support = np.concatenate(self.support)
             g_start = np.concatenate(self.grid_start
                                      + [np.array([sum(len(x) for x in self.grid_tris)])])
             g_tris = np.concatenate(self.grid_tris) if self.grid_tris else np.zeros(0, np.int64)
@@ -175,12 +178,14 @@ class _Surfaces:
             normals = np.zeros((1, 3))
             pnormals = np.zeros((1, 7, 3))
             edges = np.zeros((1, 3, 3))
+            support = np.full(1, -1)
             g_start = np.zeros(1, np.int64)
             g_tris = np.zeros(0, np.int64)
         return dict(verts=np.ascontiguousarray(verts, float),
                     tris=np.ascontiguousarray(tris, np.int64),
                     tnormal=np.ascontiguousarray(normals),
                     tedge=np.ascontiguousarray(edges),
+                    tsupport=np.ascontiguousarray(support, np.int64),
                     pnormal=np.ascontiguousarray(pnormals),
                     grid_origin=self.grid_origin, grid_cell=self.grid_cell,
                     grid_dims=self.grid_dims, grid_base=self.grid_base,

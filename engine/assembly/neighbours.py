@@ -55,7 +55,8 @@ def body_list(cap: int, history: bool) -> BodyList:
                     ratio=np.zeros(c), local=np.zeros((cap, 2, 3)), n=np.zeros(2, np.int64),
                     s2=np.zeros(cap, np.int64), b2=np.zeros(cap, np.int64),
                     ft2=np.zeros((h, HISTORY_COLUMNS)), xf=np.zeros((c, 4, 3)),
-                    deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8))
+                    deep=np.zeros(cap, np.int8), deep2=np.zeros(cap, np.int8),
+                    face=np.full(cap, -1, np.int64))
 
 
 def allocate(history_bristle: bool, history_body: bool) -> tuple[PairList, BodyList]:

@@ -178,7 +178,9 @@ def closest_features(k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tedge, 
     query keeps its own box of cells (the same expressions) and meets its triangles in the
     same order, the walk covering the union of the boxes in the same cell order; the plane
     and edge-plane rejections are the same tests, their dot products shared. Saves two of
-    three walks over the cells and their triangles' rejection tests."""
+    three walks over the cells and their triangles' rejection tests. The 17th value is the
+    triangle met whose plane both nodes are farthest in front of (-1 if none was met): the
+    narrow phase keeps it as a hint for the next step (``supported_face``)."""
     lo = grid_origin[k]
     cell = grid_cell[k]
     d0 = grid_dims[k, 0]
@@ -217,6 +219,8 @@ def closest_features(k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tedge, 
     t2 = -1
     s2 = u2 = v2 = w2 = 0.0
     e2d = 1e300
+    sep = -1
+    sep_h = -1e300
     for e0 in range(min(a_lo0, min(b_lo0, c_lo0)), max(a_hi0, max(b_hi0, c_hi0)) + 1):
         for e1 in range(min(a_lo1, min(b_lo1, c_lo1)), max(a_hi1, max(b_hi1, c_hi1)) + 1):
             for e2 in range(min(a_lo2, min(b_lo2, c_lo2)), max(a_hi2, max(b_hi2, c_hi2)) + 1):
@@ -237,6 +241,9 @@ def closest_features(k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tedge, 
                     nz = tnormal[tri, 2]
                     h0 = nx * (l0[0] - a0[0]) + ny * (l0[1] - a0[1]) + nz * (l0[2] - a0[2])
                     h1 = nx * (l1[0] - a0[0]) + ny * (l1[1] - a0[1]) + nz * (l1[2] - a0[2])
+                    if min(h0, h1) > sep_h:
+                        sep_h = min(h0, h1)
+                        sep = tri
                     q0 = in0 and not (h0 > r0 or h0 < -r0)
                     q1 = in1 and not (h1 > r1 or h1 < -r1)
                     q2 = in2 and not ((h0 > rmax and h1 > rmax) or (h0 < -rmax and h1 < -rmax))
@@ -293,7 +300,96 @@ def closest_features(k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tedge, 
         t1 = -1
     if e2d > rmax:
         t2 = -1
-    return t0, u0, v0, w0, e0d, t1, u1, v1, w1, e1d, t2, s2, u2, v2, w2, e2d
+    return t0, u0, v0, w0, e0d, t1, u1, v1, w1, e1d, t2, s2, u2, v2, w2, e2d, sep
+
+
+# the smallest barycentric weight of a node's projection on a cached face for that face to
+# settle the candidate's queries without the walk; nearer an edge the walk decides (so a tie
+# between neighbouring triangles is still broken the walk's way)
+FACE_MARGIN = 1e-6
+
+
+@item_kernel
+def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsupport):
+    """The queries of ``closest_features`` settled from one triangle F of body k alone, where
+    F's plane supports the mesh (``tsupport[F] == k``: every vertex of body k on or behind
+    it, as for each face of a convex body), without walking the grid. Returns (ok, t0, u0,
+    v0, w0, d0, t1, u1, v1, w1, d1); when ok, the segment's query (slot 2) finds no edge or
+    vertex (t2 = -1) and the node queries are as ``closest_features`` gives them (weights
+    and distances to rounding); when not ok the caller walks.
+
+    With both nodes on or in front of F's plane (h0, h1 >= 0): no mesh point is nearer to a
+    point x in front of the plane than the plane, h(x), as the mesh lies behind it.
+
+    * Separated: both nodes farther than ``rmax`` (>= r0, r1) in front: so is every point
+      of the segment, and nothing is within reach.
+    * A node farther in front than its radius has nothing within reach.
+    * A node within its radius that projects inside F (every weight >= ``FACE_MARGIN``)
+      has its projection as its closest point of the mesh, at the plane distance.
+    * The segment: the node nearer the plane (both where h0 = h1) projecting inside F, its
+      projection is the closest point of the mesh to the whole segment (every other point
+      x has h(x) above that node's), a face's interior, which slot 2 leaves to the nodes."""
+    if F < 0 or tsupport[F] != k:
+        return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
+    ia = tris[F, 0]
+    ib = tris[F, 1]
+    ic = tris[F, 2]
+    ax = verts[ia, 0]
+    ay = verts[ia, 1]
+    az = verts[ia, 2]
+    nx = tnormal[F, 0]
+    ny = tnormal[F, 1]
+    nz = tnormal[F, 2]
+    h0 = nx * (l0[0] - ax) + ny * (l0[1] - ay) + nz * (l0[2] - az)
+    h1 = nx * (l1[0] - ax) + ny * (l1[1] - ay) + nz * (l1[2] - az)
+    lim = rmax * (1.0 + 1e-9) + 1e-300
+    if h0 > lim and h1 > lim:
+        return True, -1, 0.0, 0.0, 0.0, h0, -1, 0.0, 0.0, 0.0, h1
+    if h0 < 0.0 or h1 < 0.0:
+        return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
+    # which nodes must project inside F: the nearer one (the segment's closest point), and
+    # each one within its radius (its own closest point)
+    need0 = h0 <= h1 or h0 <= r0
+    need1 = h1 <= h0 or (tip and h1 <= r1)
+    e1x = verts[ib, 0] - ax
+    e1y = verts[ib, 1] - ay
+    e1z = verts[ib, 2] - az
+    e2x = verts[ic, 0] - ax
+    e2y = verts[ic, 1] - ay
+    e2z = verts[ic, 2] - az
+    d00 = e1x * e1x + e1y * e1y + e1z * e1z
+    d01 = e1x * e2x + e1y * e2y + e1z * e2z
+    d11 = e2x * e2x + e2y * e2y + e2z * e2z
+    den = d00 * d11 - d01 * d01
+    if not den > 0.0:
+        return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
+    inv = 1.0 / den
+    u0 = v0 = w0 = u1 = v1 = w1 = 0.0
+    if need0:
+        px = l0[0] - ax
+        py = l0[1] - ay
+        pz = l0[2] - az
+        p1 = px * e1x + py * e1y + pz * e1z
+        p2 = px * e2x + py * e2y + pz * e2z
+        v0 = (d11 * p1 - d01 * p2) * inv
+        w0 = (d00 * p2 - d01 * p1) * inv
+        u0 = 1.0 - v0 - w0
+        if min(u0, min(v0, w0)) < FACE_MARGIN:
+            return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
+    if need1:
+        px = l1[0] - ax
+        py = l1[1] - ay
+        pz = l1[2] - az
+        p1 = px * e1x + py * e1y + pz * e1z
+        p2 = px * e2x + py * e2y + pz * e2z
+        v1 = (d11 * p1 - d01 * p2) * inv
+        w1 = (d00 * p2 - d01 * p1) * inv
+        u1 = 1.0 - v1 - w1
+        if min(u1, min(v1, w1)) < FACE_MARGIN:
+            return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
+    t0 = F if h0 <= r0 else -1
+    t1 = F if tip and h1 <= r1 else -1
+    return True, t0, u0, v0, w0, h0, t1, u1, v1, w1, h1
 
 
 @item_kernel
@@ -446,10 +542,10 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
     # 0.19 us with the tuples (benchmarks/body_kernel.py's frozen box state)
     nodes = (x, v, w, rad, mass)
     segs = (bi, bj, seg_has_next, seg_material)
-    lst = (cs, cb, deep, ft, local)
+    lst = (cs, cb, deep, ft, local, bl.face)
     body = (bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material)
     surf = (verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
-            grid_start, grid_tris, grid_side)
+            grid_start, grid_tris, grid_side, bd.tsupport)
     tabs = (E, mu_table, kt_table, zeta_table, adh_table)
     out = (active, fc, cp, par_s, energy, diss, overlap_ratio, xf)
     if n_cand >= PARALLEL_MIN_CANDIDATES:
@@ -466,10 +562,10 @@ def bristle_body_narrow(nd, bn, bl, bd, tb, friction, dt):
 def _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction, dt):
     x, v, w, rad, mass = nodes
     bi, bj, seg_has_next, seg_material = segs
-    cs, cb, deep, ft, local = lst
+    cs, cb, deep, ft, local, face = lst
     bpos, bq, bv, bw, bmass, motion, sphere_r, watertight, body_material = body
     (verts, tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims, grid_base,
-     grid_start, grid_tris, grid_side) = surf
+     grid_start, grid_tris, grid_side, tsupport) = surf
     E, mu_table, kt_table, zeta_table, adh_table = tabs
     active, fc, cp, par_s, energy, diss, overlap_ratio, xf = out
     sg = cs[c]
@@ -488,12 +584,20 @@ def _bristle_body_candidate(c, nodes, segs, lst, body, surf, tabs, out, friction
                                    x[i1, 1] - bpos[k, 1], x[i1, 2] - bpos[k, 2])
     mesh = sphere_r[k] <= 0.0
     if mesh:
-        # the three slots' closest triangles, in one walk of the body's grid
-        (t0, u0, v0, w0, f0, t1, u1, v1, w1, f1, t2, s2, u2, v2, w2,
-         f2) = closest_features(k, l0, l1, rad[i0], rad[i1], max(rad[i0], rad[i1]),
-                                not seg_has_next[sg], verts, tris, tnormal, tedge,
-                                grid_origin, grid_cell, grid_dims, grid_base, grid_start,
-                                grid_tris)
+        # the three slots' closest triangles: from last step's face where its plane settles
+        # them, else in one walk of the body's grid (and that walk's face kept for the next)
+        tip = not seg_has_next[sg]
+        rm = max(rad[i0], rad[i1])
+        t2 = -1
+        s2 = u2 = v2 = w2 = f2 = 0.0
+        ok, t0, u0, v0, w0, f0, t1, u1, v1, w1, f1 = supported_face(
+            face[c], k, l0, l1, rad[i0], rad[i1], rm, tip, verts, tris, tnormal, tsupport)
+        if not ok:
+            (t0, u0, v0, w0, f0, t1, u1, v1, w1, f1, t2, s2, u2, v2, w2, f2,
+             sep) = closest_features(k, l0, l1, rad[i0], rad[i1], rm, tip, verts, tris,
+                                     tnormal, tedge, grid_origin, grid_cell, grid_dims,
+                                     grid_base, grid_start, grid_tris)
+            face[c] = t0 if t0 >= 0 else (t1 if t1 >= 0 else sep)
     else:
         t0 = t1 = t2 = -1
         u0 = v0 = w0 = f0 = u1 = v1 = w1 = f1 = s2 = u2 = v2 = w2 = f2 = 0.0

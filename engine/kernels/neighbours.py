@@ -113,6 +113,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
         bl.s[:m_new] = bl.s2[:m_new]
         bl.b[:m_new] = bl.b2[:m_new]
         bl.deep[:m_new] = bl.deep2[:m_new]
+        bl.face[:m_new] = -1
         bl.n[0] = m_new
     nd.x_build[:] = nd.x
     bd.pos_build[:] = bd.pos

@@ -478,6 +478,51 @@ def edge_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return out
 
 
+# a vertex this far in front of a face's plane (a fraction of the mesh's extent) still counts
+# as on it: coplanar faces (a box's two triangles a side) round to either side by ~1e-16
+SUPPORT_TOLERANCE = 1e-9
+# (triangles x hull vertices) a chunk of the support test holds at once
+_SUPPORT_CHUNK = 4_000_000
+
+
+def supporting_faces(vertices: np.ndarray, triangles: np.ndarray,
+                     normals: np.ndarray) -> np.ndarray:
+    """Per triangle, whether its plane supports the mesh: no vertex lies in front of it (along
+    ``normals``, the unit face normals) by more than ``SUPPORT_TOLERANCE`` of the mesh's
+    extent. Every face of a convex body does; a concave mesh's faces on its convex hull do.
+    A point in front of such a face whose projection falls inside it has that projection as
+    its closest point of the whole mesh (``engine.kernels.body_contacts.supported_face``).
+    Slivers and degenerate faces (as in :func:`edge_normals`) never do. Only the convex
+    hull's vertices are tested (all of them where the hull cannot be built: a flat mesh)."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    n = np.asarray(normals, float)
+    out = np.zeros(len(t), bool)
+    if len(t) == 0:
+        return out
+    try:
+        from scipy.spatial import ConvexHull, QhullError
+        try:
+            cand = v[ConvexHull(v).vertices]
+        except (QhullError, ValueError):
+            cand = v
+    except ImportError:  # pragma: no cover - scipy is a dependency
+        cand = v
+    p = v[t]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    longest = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
+    sound = (np.sum(cross * cross, axis=1) > 1e-12 * longest * longest) & (
+        np.abs(np.sum(n * n, axis=1) - 1.0) < 1e-6)
+    tol = SUPPORT_TOLERANCE * max(float(np.ptp(v, axis=0).max()), 1e-300)
+    offset = np.sum(n * p[:, 0], axis=1)
+    step = max(1, _SUPPORT_CHUNK // max(len(cand), 1))
+    for a in range(0, len(t), step):
+        b = min(len(t), a + step)
+        ahead = (cand @ n[a:b].T - offset[a:b]).max(axis=0)
+        out[a:b] = ahead <= tol
+    return out & sound
+
+
 def pseudo_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Angle-weighted pseudo-normals (Baerentzen & Aanaes 2005) per triangle, shape (T, 7, 3):
     row 0 the face normal, rows 1-3 the normals of edges ab, bc, ca (the normalised sum of the

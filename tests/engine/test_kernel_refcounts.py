@@ -16,6 +16,7 @@ PER_ITEM = {
     contacts: ("_pair_contacts", "point_segment_max_overlap", "best_of_neighbours",
                "crossing_weight_forces"),
     body_contacts: ("_bristle_body_candidate", "closest_triangle", "closest_features",
+                    "supported_face",
                     "nearest_triangle",
                     "deep_closest", "feature_normal", "_point_fade_forces",
                     "_mesh_fade_forces", "_edge_fade_forces", "_holds_edge",
