@@ -315,8 +315,9 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
     F's plane supports the mesh (``tsupport[F] == k``: every vertex of body k on or behind
     it, as for each face of a convex body), without walking the grid. Returns (ok, t0, u0,
     v0, w0, d0, t1, u1, v1, w1, d1); when ok, the segment's query (slot 2) finds no edge or
-    vertex (t2 = -1) and the node queries are as ``closest_features`` gives them (weights
-    and distances to rounding); when not ok the caller walks.
+    vertex (t2 = -1) and the node queries are what ``closest_features`` gives, bit for bit
+    (the same routine on the triangle the walk would pick), so the forces do not change;
+    when not ok the caller walks.
 
     With both nodes on or in front of F's plane (h0, h1 >= 0): no mesh point is nearer to a
     point x in front of the plane than the plane, h(x), as the mesh lies behind it.
@@ -349,8 +350,10 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
         return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
     # which nodes must project inside F: the nearer one (the segment's closest point), and
     # each one within its radius (its own closest point)
-    need0 = h0 <= h1 or h0 <= r0
-    need1 = h1 <= h0 or (tip and h1 <= r1)
+    lim0 = r0 * (1.0 + 1e-9) + 1e-300
+    lim1 = r1 * (1.0 + 1e-9) + 1e-300
+    need0 = h0 <= h1 or h0 <= lim0
+    need1 = h1 <= h0 or (tip and h1 <= lim1)
     e1x = verts[ib, 0] - ax
     e1y = verts[ib, 1] - ay
     e1z = verts[ib, 2] - az
@@ -366,30 +369,40 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
     inv = 1.0 / den
     u0 = v0 = w0 = u1 = v1 = w1 = 0.0
     if need0:
-        px = l0[0] - ax
-        py = l0[1] - ay
-        pz = l0[2] - az
-        p1 = px * e1x + py * e1y + pz * e1z
-        p2 = px * e2x + py * e2y + pz * e2z
-        v0 = (d11 * p1 - d01 * p2) * inv
-        w0 = (d00 * p2 - d01 * p1) * inv
-        u0 = 1.0 - v0 - w0
+        u0, v0, w0 = _plane_weights(l0[0] - ax, l0[1] - ay, l0[2] - az, e1x, e1y, e1z, e2x,
+                                    e2y, e2z, d00, d01, d11, inv)
         if min(u0, min(v0, w0)) < FACE_MARGIN:
             return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
     if need1:
-        px = l1[0] - ax
-        py = l1[1] - ay
-        pz = l1[2] - az
-        p1 = px * e1x + py * e1y + pz * e1z
-        p2 = px * e2x + py * e2y + pz * e2z
-        v1 = (d11 * p1 - d01 * p2) * inv
-        w1 = (d00 * p2 - d01 * p1) * inv
-        u1 = 1.0 - v1 - w1
+        u1, v1, w1 = _plane_weights(l1[0] - ax, l1[1] - ay, l1[2] - az, e1x, e1y, e1z, e2x,
+                                    e2y, e2z, d00, d01, d11, inv)
         if min(u1, min(v1, w1)) < FACE_MARGIN:
             return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
-    t0 = F if h0 <= r0 else -1
-    t1 = F if tip and h1 <= r1 else -1
+    # each node's answer as the walk computes it (the same routine on the same triangle, so
+    # the same bits): F is the walk's unique closest triangle
+    t0 = -1
+    t1 = -1
+    if h0 <= lim0:
+        _s, u0, v0, w0, h0 = segment_triangle_closest(l0, l0, verts[ia], verts[ib], verts[ic])
+        if h0 <= r0:
+            t0 = F
+    if tip and h1 <= lim1:
+        _s, u1, v1, w1, h1 = segment_triangle_closest(l1, l1, verts[ia], verts[ib], verts[ic])
+        if h1 <= r1:
+            t1 = F
     return True, t0, u0, v0, w0, h0, t1, u1, v1, w1, h1
+
+
+@njit(cache=True, inline="always")
+def _plane_weights(px, py, pz, e1x, e1y, e1z, e2x, e2y, e2z, d00, d01, d11, inv):
+    """Barycentric weights (of corners a, b, c) of the projection onto a triangle's plane of
+    the point a + p, the edges e1 = b - a and e2 = c - a, their Gram entries d00 = e1.e1,
+    d01 = e1.e2, d11 = e2.e2 and inv = 1 / (d00 d11 - d01^2)."""
+    p1 = px * e1x + py * e1y + pz * e1z
+    p2 = px * e2x + py * e2y + pz * e2z
+    v = (d11 * p1 - d01 * p2) * inv
+    w = (d00 * p2 - d01 * p1) * inv
+    return 1.0 - v - w, v, w
 
 
 @item_kernel
