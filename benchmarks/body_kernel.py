@@ -90,17 +90,33 @@ def _scatter_loop(nd, bn, bl, bd, stats, reps):
         scatter_bristle_body(nd, bn, bl, bd, stats)
 
 
-@njit(cache=True)
-def _rebuild_loop(nd, bn, bd, bl, skin, reps):
-    n = 0
-    for _ in range(reps):
-        n = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r, bd.collide,
-                                  skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad, bn.i, bn.j,
-                                  bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts, bd.tris,
-                                  bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
-                                  bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
-                                  bd.grid_tris, bd.grid_side, bd.scratch2)
-    return n
+def _rebuild_kernel():
+    """``reps`` rebuilds of the candidate list, as the step loop's rebuild makes them
+    (``neighbours.build_body_list``; ``build_body_candidates`` with the arguments it had on
+    an engine without it)."""
+    try:
+        from engine.kernels.neighbours import build_body_list
+    except ImportError:
+        @njit
+        def loop(nd, bn, bd, bl, skin, reps):
+            n = 0
+            for _ in range(reps):
+                n = build_body_candidates(
+                    bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r, bd.collide, skin, bl.s2,
+                    bl.b2, bl.deep2, nd.x, nd.rad, bn.i, bn.j, bn.rmax, bd.q, bd.sphere_r,
+                    bd.watertight, bd.verts, bd.tris, bd.tnormal, bd.tedge, bd.pnormal,
+                    bd.grid_origin, bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
+                    bd.grid_tris, bd.grid_side, bd.scratch2)
+            return n
+        return loop
+
+    @njit
+    def loop(nd, bn, bd, bl, skin, reps):
+        n = 0
+        for _ in range(reps):
+            n = build_body_list(nd, bn, bd, bl, skin)
+        return n
+    return loop
 
 
 @njit(cache=True)
@@ -268,7 +284,8 @@ def measure(name, system, out, repeats):
     t_frame = _timed(lambda r: _frame_only(nd, bn, bl, bd, r), repeats, inner)
     t_search = _timed(lambda r: search(nd, bn, bl, bd, r), repeats, inner)
     t_walk = _timed(lambda r: walk[0](nd, bn, bl, bd, r), repeats, inner) if walk else None
-    t_rebuild = _timed(lambda r: _rebuild_loop(nd, bn, bd, bl, skin, r), repeats,
+    rebuild = _rebuild_kernel()
+    t_rebuild = _timed(lambda r: rebuild(nd, bn, bd, bl, skin, r), repeats,
                        max(1, inner // 4))
     bl.ft[:n * BSLOT] = ft0
     for a, b in zip((nd.f, nd.t, bd.f, bd.tq), keep):

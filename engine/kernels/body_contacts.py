@@ -28,7 +28,7 @@ from .rotations import qrot, qrot_inv
 def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, out_s, out_b,
                           out_deep, x, rad, bi, bj, seg_rmax, q, sphere_r, watertight, verts,
                           tris, tnormal, tedge, pnormal, grid_origin, grid_cell, grid_dims,
-                          grid_base, grid_start, grid_tris, grid_side, local):
+                          grid_base, grid_start, grid_tris, grid_side, local, tsupport):
     """(segment, body) pairs whose capsule and body surface are closer than ``skin``, or
     whose segment lies inside a closed body (a sphere, or a watertight mesh: then it may be
     farther than the skin from every face), sorted by (segment, body); the bounding spheres
@@ -40,7 +40,12 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
     radius before the next rebuild: it is inside now, or half the skin (the most a node and a
     body move relative to each other between rebuilds, ``neighbours.predicted_displacement``)
     reaches its radius. A node outside now is then at most half the skin inside, within its
-    radius of a face, where the narrow phase finds it without the deep search."""
+    radius of a face, where the narrow phase finds it without the deep search.
+
+    Before those searches, a supporting face in a node's grid cell (``tsupport``) that both
+    ends lie farther in front of than the reach settles a segment as far and outside, and
+    one a node lies in front of settles the node as outside (``_cell_face_in_front``): the
+    same list, without the searches."""
     ns = mid.shape[0]
     nk = pos.shape[0]
     cap = out_s.shape[0]
@@ -72,6 +77,10 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                                                x[i0, 1] - pos[k, 1], x[i0, 2] - pos[k, 2])
                 l1[0], l1[1], l1[2] = qrot_inv(qw, qx, qy, qz, x[i1, 0] - pos[k, 0],
                                                x[i1, 1] - pos[k, 1], x[i1, 2] - pos[k, 2])
+                if _cell_face_in_front(k, l1, l0, reach * (1.0 + 1e-9) + 1e-300, verts, tris,
+                                       tnormal, tsupport, grid_origin, grid_cell, grid_dims,
+                                       grid_base, grid_start, grid_tris):
+                    continue  # farther than the reach from the whole mesh, and outside it
                 tri, _s, _u, _v, _w, d = closest_triangle(k, l0, l1, reach, verts, tris, tnormal, tedge,
                                                           grid_origin, grid_cell, grid_dims,
                                                           grid_base, grid_start, grid_tris)
@@ -88,12 +97,20 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                     out_b[n] = k
                     flags = 0
                     if sphere_r[k] <= 0.0 and watertight[k]:
-                        if 0.5 * skin >= rad[i0] or deep_closest(
+                        # a node in front of a supporting face is outside: no deep search
+                        front = FRONT_MARGIN * grid_cell[k]
+                        if 0.5 * skin >= rad[i0] or not _cell_face_in_front(
+                                k, l0, l0, front, verts, tris, tnormal, tsupport, grid_origin,
+                                grid_cell, grid_dims, grid_base, grid_start,
+                                grid_tris) and deep_closest(
                                 k, l0, rad[i0], verts, tris, tnormal, tedge, pnormal, grid_origin,
                                 grid_cell, grid_dims, grid_base, grid_start, grid_tris,
                                 grid_side)[0] >= 0:
                             flags |= 1
-                        if 0.5 * skin >= rad[i1] or deep_closest(
+                        if 0.5 * skin >= rad[i1] or not _cell_face_in_front(
+                                k, l1, l1, front, verts, tris, tnormal, tsupport, grid_origin,
+                                grid_cell, grid_dims, grid_base, grid_start,
+                                grid_tris) and deep_closest(
                                 k, l1, rad[i1], verts, tris, tnormal, tedge, pnormal, grid_origin,
                                 grid_cell, grid_dims, grid_base, grid_start, grid_tris,
                                 grid_side)[0] >= 0:
@@ -101,6 +118,45 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
                     out_deep[n] = flags
                 n += 1
     return n
+
+
+# how far (a fraction of the grid cell) a node must lie in front of a supporting face for
+# the rebuild to take it as outside without the deep search: well above the rounding of the
+# plane distance, far below any contact's scale
+FRONT_MARGIN = 1e-9
+
+
+@item_kernel
+def _cell_face_in_front(k, p, q, lim, verts, tris, tnormal, tsupport, grid_origin, grid_cell,
+                        grid_dims, grid_base, grid_start, grid_tris):
+    """Whether a triangle of body k listed in the grid cell holding p (body frame; False if
+    p is outside the grid's box) has a plane that supports the mesh (``tsupport``) with both
+    p and q farther than ``lim`` in front of it. Then every point of the segment pq is
+    farther than lim from the mesh, and outside it (the mesh lies behind that plane)."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    for a in range(3):
+        if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
+            return False
+    d1 = grid_dims[k, 1]
+    d2 = grid_dims[k, 2]
+    c0 = min(int(math.floor((p[0] - lo[0]) / cell)), grid_dims[k, 0] - 1)
+    c1 = min(int(math.floor((p[1] - lo[1]) / cell)), d1 - 1)
+    c2 = min(int(math.floor((p[2] - lo[2]) / cell)), d2 - 1)
+    cc = grid_base[k] + (c0 * d1 + c1) * d2 + c2
+    for idx in range(grid_start[cc], grid_start[cc + 1]):
+        tri = grid_tris[idx]
+        if tsupport[tri] != k:
+            continue
+        ia = tris[tri, 0]
+        nx = tnormal[tri, 0]
+        ny = tnormal[tri, 1]
+        nz = tnormal[tri, 2]
+        hp = nx * (p[0] - verts[ia, 0]) + ny * (p[1] - verts[ia, 1]) + nz * (p[2] - verts[ia, 2])
+        hq = nx * (q[0] - verts[ia, 0]) + ny * (q[1] - verts[ia, 1]) + nz * (q[2] - verts[ia, 2])
+        if hp > lim and hq > lim:
+            return True
+    return False
 
 
 @item_kernel

@@ -87,13 +87,7 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
             pl.n[1] = n_new
             return OVERFLOW_PAIRS
     if fl.bristle_body:
-        m_new = build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r,
-                                      bd.collide, skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad,
-                                      bn.i, bn.j,
-                                      bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts,
-                                      bd.tris, bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
-                                      bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
-                                      bd.grid_tris, bd.grid_side, bd.scratch2)
+        m_new = build_body_list(nd, bn, bd, bl, skin)
         if m_new > bl.s2.shape[0]:
             bl.n[1] = m_new
             return OVERFLOW_BODY
@@ -119,6 +113,18 @@ def rebuild_lists(nd, bn, bd, pl, bl, fl, skin):
     bd.pos_build[:] = bd.pos
     bd.q_build[:] = bd.q
     return OK
+
+
+@njit(cache=True)
+def build_body_list(nd, bn, bd, bl, skin):
+    """The (segment, body) candidates from the current positions into the list's second
+    rows (``bl.s2``, ``bl.b2``, ``bl.deep2``); returns their count (``build_body_candidates``)."""
+    return build_body_candidates(bn.mid, bn.bound, bn.mount, bd.pos, bd.bound_r, bd.collide,
+                                 skin, bl.s2, bl.b2, bl.deep2, nd.x, nd.rad, bn.i, bn.j,
+                                 bn.rmax, bd.q, bd.sphere_r, bd.watertight, bd.verts, bd.tris,
+                                 bd.tnormal, bd.tedge, bd.pnormal, bd.grid_origin,
+                                 bd.grid_cell, bd.grid_dims, bd.grid_base, bd.grid_start,
+                                 bd.grid_tris, bd.grid_side, bd.scratch2, bd.tsupport)
 
 
 @njit(cache=True)

@@ -609,3 +609,47 @@ def test_supported_face_settles_only_what_the_walk_would_find(shape):
                 assert tg[4] == pytest.approx(ref, rel=1e-9, abs=1e-15)
     # (about 70-90 of the 600 draws settle, 45-55 touching; 50-60 sit over a face)
     assert settled > 50 and touched > 25 and on_face > 30
+
+
+@pytest.mark.parametrize("skin", [None, 0.006])
+def test_rebuild_shortcut_by_supporting_faces_lists_what_the_searches_list(skin):
+    """The rebuild settles a segment as far and outside, or a node as outside, from a
+    supporting face of a node's grid cell (``_cell_face_in_front``) before its searches.
+    Along a wedge press into a 5-node brush (the default skin and a 6 mm one, which lists
+    far more segments), the list, its order and the deep flags must equal those of the same
+    rebuild with no face marked as supporting (every segment searched), and the shortcut must
+    settle segments there (else it saves nothing)."""
+    from engine.kernels.body_contacts import _cell_face_in_front
+    from engine.kernels.neighbours import build_body_list
+    from engine.kernels.rotations import qrot_inv
+
+    data = _wedge_preset()
+    data["bodies"][0]["motion"] = {
+        "type": "kinematic", "after": "hold",
+        "profile": {"kind": "constant", "velocity": [0.0, 0.0, -0.2], "duration": 0.0075}}
+    data["run"]["verlet_skin"] = skin
+    system = engine.build(engine.parse_scene(data))
+    nd, bn, bl = system.nodes, system.bonds, system.body_pairs
+    skin_m = float(system.limits[LIMIT_SKIN])
+    settled = listed = 0
+    for until in (0.002, 0.004, 0.006, 0.0085):
+        engine.run(system, until=until)
+        bd = system.bodies
+        assert (bd.tsupport >= 0).sum() > 0
+        lists = []
+        for support in (np.full_like(bd.tsupport, -1), bd.tsupport):
+            n = build_body_list(nd, bn, bd._replace(tsupport=support), bl, skin_m)
+            lists.append((bl.s2[:n].copy(), bl.b2[:n].copy(), bl.deep2[:n].copy()))
+        for a, b in zip(*lists):
+            np.testing.assert_array_equal(a, b)
+        listed += len(lists[0][0])
+        # how many segments near the body the shortcut settles (both ends in front)
+        for s in range(len(bn.i)):
+            ends = [np.array(qrot_inv(*bd.q[0], *(nd.x[i] - bd.pos[0])))
+                    for i in (bn.i[s], bn.j[s])]
+            reach = max(nd.rad[bn.i[s]], nd.rad[bn.j[s]]) + skin_m
+            settled += _cell_face_in_front(0, ends[1], ends[0], reach * (1 + 1e-9), bd.verts,
+                                           bd.tris, bd.tnormal, bd.tsupport, bd.grid_origin,
+                                           bd.grid_cell, bd.grid_dims, bd.grid_base,
+                                           bd.grid_start, bd.grid_tris)
+    assert listed > 10 and settled > 100  # (20 listed, 210 settled at the default skin)

@@ -16,7 +16,7 @@ PER_ITEM = {
     contacts: ("_pair_contacts", "point_segment_max_overlap", "best_of_neighbours",
                "crossing_weight_forces"),
     body_contacts: ("_bristle_body_candidate", "closest_triangle", "closest_features",
-                    "supported_face",
+                    "supported_face", "_cell_face_in_front",
                     "nearest_triangle",
                     "deep_closest", "feature_normal", "_point_fade_forces",
                     "_mesh_fade_forces", "_edge_fade_forces", "_holds_edge",
@@ -45,7 +45,7 @@ def test_every_njit_kernel_of_the_contact_modules_is_listed_or_allocates():
         contacts: {"segment_bounds", "build_pair_list", "bristle_bristle_narrow",
                    "scatter_bristle_bristle"},
         # once per rebuild: copies slices of the lists
-        neighbours: {"rebuild_lists", "carry_history"},
+        neighbours: {"rebuild_lists", "carry_history", "build_body_list"},
         body_contacts: {"build_body_candidates", "bristle_body_narrow",
                         "scatter_bristle_body", "body_body_contacts"},
         # once per step (allocates each pair's hit buffers), and the build-time check
