@@ -120,6 +120,20 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
     return n
 
 
+@njit(cache=True, inline="always")
+def _heights(tri, p, q, verts, tris, tnormal):
+    """The heights of points p and q above triangle tri's plane, along its unit normal."""
+    ia = tris[tri, 0]
+    nx = tnormal[tri, 0]
+    ny = tnormal[tri, 1]
+    nz = tnormal[tri, 2]
+    ax = verts[ia, 0]
+    ay = verts[ia, 1]
+    az = verts[ia, 2]
+    return (nx * (p[0] - ax) + ny * (p[1] - ay) + nz * (p[2] - az),
+            nx * (q[0] - ax) + ny * (q[1] - ay) + nz * (q[2] - az))
+
+
 # how far (a fraction of the grid cell) a node must lie in front of a supporting face for
 # the rebuild to take it as outside without the deep search: well above the rounding of the
 # plane distance, far below any contact's scale
@@ -148,12 +162,7 @@ def _cell_face_in_front(k, p, q, lim, verts, tris, tnormal, tsupport, grid_origi
         tri = grid_tris[idx]
         if tsupport[tri] != k:
             continue
-        ia = tris[tri, 0]
-        nx = tnormal[tri, 0]
-        ny = tnormal[tri, 1]
-        nz = tnormal[tri, 2]
-        hp = nx * (p[0] - verts[ia, 0]) + ny * (p[1] - verts[ia, 1]) + nz * (p[2] - verts[ia, 2])
-        hq = nx * (q[0] - verts[ia, 0]) + ny * (q[1] - verts[ia, 1]) + nz * (q[2] - verts[ia, 2])
+        hp, hq = _heights(tri, p, q, verts, tris, tnormal)
         if hp > lim and hq > lim:
             return True
     return False
@@ -388,17 +397,7 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
       x has h(x) above that node's), a face's interior, which slot 2 leaves to the nodes."""
     if F < 0 or tsupport[F] != k:
         return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
-    ia = tris[F, 0]
-    ib = tris[F, 1]
-    ic = tris[F, 2]
-    ax = verts[ia, 0]
-    ay = verts[ia, 1]
-    az = verts[ia, 2]
-    nx = tnormal[F, 0]
-    ny = tnormal[F, 1]
-    nz = tnormal[F, 2]
-    h0 = nx * (l0[0] - ax) + ny * (l0[1] - ay) + nz * (l0[2] - az)
-    h1 = nx * (l1[0] - ax) + ny * (l1[1] - ay) + nz * (l1[2] - az)
+    h0, h1 = _heights(F, l0, l1, verts, tris, tnormal)
     lim = rmax * (1.0 + 1e-9) + 1e-300
     if h0 > lim and h1 > lim:
         return True, -1, 0.0, 0.0, 0.0, h0, -1, 0.0, 0.0, 0.0, h1
@@ -410,6 +409,12 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
     lim1 = r1 * (1.0 + 1e-9) + 1e-300
     need0 = h0 <= h1 or h0 <= lim0
     need1 = h1 <= h0 or (tip and h1 <= lim1)
+    ia = tris[F, 0]
+    ib = tris[F, 1]
+    ic = tris[F, 2]
+    ax = verts[ia, 0]
+    ay = verts[ia, 1]
+    az = verts[ia, 2]
     e1x = verts[ib, 0] - ax
     e1y = verts[ib, 1] - ay
     e1z = verts[ib, 2] - az
