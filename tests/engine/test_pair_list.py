@@ -1,0 +1,57 @@
+"""The bristle-bristle neighbour list (``contacts.build_pair_list``): its cell-list broad
+phase must find every pair of segments of different bristles whose capsules are within the
+skin, each once, sorted, as the all-pairs search with the same distance test finds them."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.kernels.contacts import build_pair_list, segment_bounds
+from engine.kernels.geometry import segment_segment_closest
+
+
+def _chains(rng, n_bristles, n_nodes, spread, step):
+    """Random bristles: chains of ``n_nodes`` nodes, each a random walk of ``step`` from a
+    random root in a cube of side ``spread``; node radii 0.2 to 2 mm."""
+    x = np.empty((n_bristles * n_nodes, 3))
+    for b in range(n_bristles):
+        p = rng.uniform(0.0, spread, 3)
+        for k in range(n_nodes):
+            x[b * n_nodes + k] = p
+            p = p + rng.normal(size=3) * step
+    rad = rng.uniform(2e-4, 2e-3, len(x))
+    first = np.arange(n_bristles)[:, None] * n_nodes
+    bi = (first + np.arange(n_nodes - 1)).ravel()
+    bj = bi + 1
+    return x, rad, bi, bj, np.repeat(np.arange(n_bristles), n_nodes - 1)
+
+
+@pytest.mark.parametrize("n_bristles,spread,step", [(60, 0.03, 0.006), (200, 0.05, 0.004),
+                                                    (40, 2.0, 0.01)])
+def test_pair_list_finds_each_pair_within_the_skin_once(n_bristles, spread, step):
+    rng = np.random.default_rng(n_bristles)
+    x, rad, bi, bj, bristle = _chains(rng, n_bristles, 6, spread, step)
+    skin = 1e-3
+    ns = len(bi)
+    mid, bound = np.empty((ns, 3)), np.empty(ns)
+    segment_bounds(x, rad, bi, bj, mid, bound)
+    rmax = np.maximum(rad[bi], rad[bj])
+    cap = ns * ns
+    out_a, out_b = np.zeros(cap, np.int64), np.zeros(cap, np.int64)
+    n = build_pair_list(mid, bound, bristle, skin, out_a, out_b, x, bi, bj, rmax)
+    want = []
+    for a in range(ns):
+        for b in range(a + 1, ns):
+            if bristle[a] == bristle[b]:
+                continue
+            pa, qa, pb, qb = x[bi[a]], x[bj[a]], x[bi[b]], x[bj[b]]
+            s, t = segment_segment_closest(pa, qa, pb, qb)
+            # the gap vector and its square, term by term as the kernel writes them
+            e = [pa[c] + s * (qa[c] - pa[c]) - pb[c] - t * (qb[c] - pb[c]) for c in range(3)]
+            lim = rmax[a] + rmax[b] + skin
+            if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] < lim * lim:
+                want.append((a, b))
+    got = list(zip(out_a[:n].tolist(), out_b[:n].tolist()))
+    assert got == want
+    if spread < 1.0:
+        assert n > 50  # a crowded scene: the list has something to find
