@@ -439,15 +439,16 @@ def supported_face(F, k, l0, l1, r0, r1, rmax, tip, verts, tris, tnormal, tsuppo
                                     e2y, e2z, d00, d01, d11, inv)
         if min(u1, min(v1, w1)) < FACE_MARGIN:
             return False, -1, 0.0, 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0
-    # each node's answer as the walk computes it (the same routine on the same triangle, so
-    # the same bits): F is the walk's unique closest triangle
+    # each node's answer as the walk computes it: the walk measures a triangle that its
+    # plane test (h <= r) lets through with this routine and keeps it within r; F is its
+    # unique closest triangle, so the same bits
     t0 = -1
     t1 = -1
-    if h0 <= lim0:
+    if h0 <= r0:
         _s, u0, v0, w0, h0 = segment_triangle_closest(l0, l0, verts[ia], verts[ib], verts[ic])
         if h0 <= r0:
             t0 = F
-    if tip and h1 <= lim1:
+    if tip and h1 <= r1:
         _s, u1, v1, w1, h1 = segment_triangle_closest(l1, l1, verts[ia], verts[ib], verts[ic])
         if h1 <= r1:
             t1 = F
