@@ -121,6 +121,23 @@ def build_body_candidates(mid, bound, seg_mount, pos, bound_r, collide, skin, ou
 
 
 @njit(cache=True, inline="always")
+def _grid_cell_of(k, p, grid_origin, grid_cell, grid_dims, grid_base):
+    """The index (in the concatenated grids) of body k's grid cell holding point p (body
+    frame), or -1 where p is outside the grid's box."""
+    lo = grid_origin[k]
+    cell = grid_cell[k]
+    for a in range(3):
+        if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
+            return -1
+    d1 = grid_dims[k, 1]
+    d2 = grid_dims[k, 2]
+    c0 = min(int(math.floor((p[0] - lo[0]) / cell)), grid_dims[k, 0] - 1)
+    c1 = min(int(math.floor((p[1] - lo[1]) / cell)), d1 - 1)
+    c2 = min(int(math.floor((p[2] - lo[2]) / cell)), d2 - 1)
+    return grid_base[k] + (c0 * d1 + c1) * d2 + c2
+
+
+@njit(cache=True, inline="always")
 def _heights(tri, p, q, verts, tris, tnormal):
     """The heights of points p and q above triangle tri's plane, along its unit normal."""
     ia = tris[tri, 0]
@@ -147,17 +164,9 @@ def _cell_face_in_front(k, p, q, lim, verts, tris, tnormal, tsupport, grid_origi
     p is outside the grid's box) has a plane that supports the mesh (``tsupport``) with both
     p and q farther than ``lim`` in front of it. Then every point of the segment pq is
     farther than lim from the mesh, and outside it (the mesh lies behind that plane)."""
-    lo = grid_origin[k]
-    cell = grid_cell[k]
-    for a in range(3):
-        if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
-            return False
-    d1 = grid_dims[k, 1]
-    d2 = grid_dims[k, 2]
-    c0 = min(int(math.floor((p[0] - lo[0]) / cell)), grid_dims[k, 0] - 1)
-    c1 = min(int(math.floor((p[1] - lo[1]) / cell)), d1 - 1)
-    c2 = min(int(math.floor((p[2] - lo[2]) / cell)), d2 - 1)
-    cc = grid_base[k] + (c0 * d1 + c1) * d2 + c2
+    cc = _grid_cell_of(k, p, grid_origin, grid_cell, grid_dims, grid_base)
+    if cc < 0:
+        return False
     for idx in range(grid_start[cc], grid_start[cc + 1]):
         tri = grid_tris[idx]
         if tsupport[tri] != k:
@@ -524,17 +533,8 @@ def deep_closest(k, p, r0, verts, tris, tnormal, tedge, pnormal, grid_origin, gr
     triangle's box overlaps takes that cell's side from ``grid_side`` (``CELL_OUTSIDE``:
     outside without a search; the surface does not pass through such a cell, see
     ``engine.assembly.bodies.classify_empty_cells``)."""
-    lo = grid_origin[k]
-    cell = grid_cell[k]
-    for a in range(3):
-        if p[a] < lo[a] or p[a] > lo[a] + grid_dims[k, a] * cell:
-            return -1, 0.0, 0.0, 0.0, 0.0
-    d1 = grid_dims[k, 1]
-    d2 = grid_dims[k, 2]
-    c0 = min(int(math.floor((p[0] - lo[0]) / cell)), grid_dims[k, 0] - 1)
-    c1 = min(int(math.floor((p[1] - lo[1]) / cell)), d1 - 1)
-    c2 = min(int(math.floor((p[2] - lo[2]) / cell)), d2 - 1)
-    if grid_side[grid_base[k] + (c0 * d1 + c1) * d2 + c2] == CELL_OUTSIDE:
+    cc = _grid_cell_of(k, p, grid_origin, grid_cell, grid_dims, grid_base)
+    if cc < 0 or grid_side[cc] == CELL_OUTSIDE:
         return -1, 0.0, 0.0, 0.0, 0.0
     tri, u, v, w, d = nearest_triangle(k, p, r0, verts, tris, tnormal, tedge, grid_origin, grid_cell,
                                        grid_dims, grid_base, grid_start, grid_tris)

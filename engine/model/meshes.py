@@ -450,6 +450,17 @@ def _expand(i0, span, counts, dims):
     return (ci * dims[1] + cj) * dims[2] + ck
 
 
+def _sound_faces(corners: np.ndarray) -> np.ndarray:
+    """Per triangle (corners (T, 3, 3)), whether it is no sliver: |ab x ac|^2 above 1e-12 of
+    its longest edge^4, a far wider margin than the contact geometry's own degenerate test.
+    Only sound faces get edge normals (:func:`edge_normals`) or support the mesh
+    (:func:`supporting_faces`)."""
+    p = corners
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    longest = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
+    return np.sum(n * n, axis=1) > 1e-12 * longest * longest
+
+
 def edge_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Unit normals of each triangle's edges ab, bc, ca in the triangle's plane, pointing
     away from the opposite vertex, shape (T, 3, 3). The triangle lies in each half-space
@@ -464,10 +475,8 @@ def edge_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         return out
     p = v[t]                                   # (T, 3 corners, 3)
     n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    longest = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
-    # slivers (far wider margin than the contact geometry's own degenerate test): rounding
-    # could tilt their edge normals, so they are never rejected this way
-    sound = np.sum(n * n, axis=1) > 1e-12 * longest * longest
+    # slivers: rounding could tilt their edge normals, so they are never rejected this way
+    sound = _sound_faces(p)
     for e in range(3):
         a, b, c = p[:, e], p[:, (e + 1) % 3], p[:, (e + 2) % 3]
         m = np.cross(b - a, n)
@@ -500,19 +509,13 @@ def supporting_faces(vertices: np.ndarray, triangles: np.ndarray,
     out = np.zeros(len(t), bool)
     if len(t) == 0:
         return out
+    from scipy.spatial import ConvexHull, QhullError
     try:
-        from scipy.spatial import ConvexHull, QhullError
-        try:
-            cand = v[ConvexHull(v).vertices]
-        except (QhullError, ValueError):
-            cand = v
-    except ImportError:  # pragma: no cover - scipy is a dependency
+        cand = v[ConvexHull(v).vertices]
+    except (QhullError, ValueError):
         cand = v
     p = v[t]
-    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    longest = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
-    sound = (np.sum(cross * cross, axis=1) > 1e-12 * longest * longest) & (
-        np.abs(np.sum(n * n, axis=1) - 1.0) < 1e-6)
+    sound = _sound_faces(p) & (np.abs(np.sum(n * n, axis=1) - 1.0) < 1e-6)
     tol = SUPPORT_TOLERANCE * max(float(np.ptp(v, axis=0).max()), 1e-300)
     offset = np.sum(n * p[:, 0], axis=1)
     step = max(1, _SUPPORT_CHUNK // max(len(cand), 1))
