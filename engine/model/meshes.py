@@ -502,18 +502,24 @@ def supporting_faces(vertices: np.ndarray, triangles: np.ndarray,
     A point in front of such a face whose projection falls inside it has that projection as
     its closest point of the whole mesh (``engine.kernels.body_contacts.supported_face``).
     Slivers and degenerate faces (as in :func:`edge_normals`) never do. Only the convex
-    hull's vertices are tested (all of them where the hull cannot be built: a flat mesh)."""
+    hull's vertices need testing (the farthest vertex in front of a plane is one of them), so
+    a mesh whose triangles x vertices fit one chunk of the test has all its vertices tested
+    and no hull built (scipy.spatial's import alone costs a small study a sixth of a CPU
+    second); a larger one has its hull's, or all of them where the hull cannot be built (a
+    flat mesh)."""
     v = np.asarray(vertices, float)
     t = np.asarray(triangles, np.int64)
     n = np.asarray(normals, float)
     out = np.zeros(len(t), bool)
     if len(t) == 0:
         return out
-    from scipy.spatial import ConvexHull, QhullError
-    try:
-        cand = v[ConvexHull(v).vertices]
-    except (QhullError, ValueError):
-        cand = v
+    cand = v
+    if len(t) * len(v) > _SUPPORT_CHUNK:
+        from scipy.spatial import ConvexHull, QhullError
+        try:
+            cand = v[ConvexHull(v).vertices]
+        except (QhullError, ValueError):
+            pass
     p = v[t]
     sound = _sound_faces(p) & (np.abs(np.sum(n * n, axis=1) - 1.0) < 1e-6)
     tol = SUPPORT_TOLERANCE * max(float(np.ptp(v, axis=0).max()), 1e-300)

@@ -539,6 +539,28 @@ def test_closest_features_in_one_walk_match_brute_force_and_the_separate_searche
 
 
 @pytest.mark.parametrize("shape", ["cylinder", "box", "annulus"])
+def test_supporting_faces_with_and_without_the_convex_hull(shape, monkeypatch):
+    """A small mesh has all its vertices tested against each face's plane, a large one only
+    its convex hull's (the farthest vertex in front of a plane is a hull vertex): both give
+    the faces that support the mesh, which for the convex cylinder and box are all of them
+    and for the annulus (a tube) all but its inner wall."""
+    from engine.model import meshes
+
+    _mesh, v, t, args = _test_mesh(shape)
+    normals = args[2]
+    every = meshes.supporting_faces(v, t, normals)
+    monkeypatch.setattr(meshes, "_SUPPORT_CHUNK", 8)   # below triangles x vertices: the hull
+    hull = meshes.supporting_faces(v, t, normals)
+    assert np.array_equal(every, hull)
+    if shape == "annulus":
+        centre = v[t].mean(axis=1)
+        inner = (np.abs(normals[:, 2]) < 0.5) & (np.hypot(centre[:, 0], centre[:, 1]) < 0.25)
+        assert inner.any() and np.array_equal(every, ~inner)
+    else:
+        assert every.all()
+
+
+@pytest.mark.parametrize("shape", ["cylinder", "box", "annulus"])
 def test_supported_face_settles_only_what_the_walk_would_find(shape):
     """The narrow phase answers a candidate's closest-feature queries from last step's face,
     without walking the grid, where that face's plane supports the mesh (``supported_face``).
