@@ -35,13 +35,13 @@ from numba import njit
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def wedge_system():
-    """The wedge_60 preset's brush (8 nodes per bristle) with the wedge driven 20 mm down at
-    0.2 m/s and held (the study drives it more slowly; the bonds' cost does not depend on
+def wedge_system(depth: float = 0.020):
+    """The wedge_60 preset's brush (8 nodes per bristle) with the wedge driven ``depth`` (m)
+    down at 0.2 m/s (the study drives it more slowly; the bonds' cost does not depend on
     how the state was reached)."""
     import engine
     data = json.loads((ROOT / "static_presets" / "wedge_60.json").read_text())
-    depth, speed = 0.020, 0.2
+    speed = 0.2
     data["bodies"][0]["motion"] = {
         "type": "kinematic", "after": "hold",
         "profile": {"kind": "constant", "velocity": [0.0, 0.0, -speed],

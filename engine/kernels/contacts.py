@@ -198,10 +198,52 @@ def bristle_bristle_narrow(nd, bn, pl, tb, friction, dt):
     out = (active, fc, cp, par_s, par_t, energy, diss, overlap_ratio, xf)
     if n_pairs >= PARALLEL_MIN:
         for p in prange(n_pairs):
-            _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt)
+            _pair(p, nodes, segs, lst, tabs, out, friction, dt)
     else:
         for p in range(n_pairs):
-            _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt)
+            _pair(p, nodes, segs, lst, tabs, out, friction, dt)
+
+
+@njit(cache=True, inline="always")
+def _pair(p, nodes, segs, lst, tabs, out, friction, dt):
+    """One listed pair. Where the capsules are apart (axis distance at least both segments'
+    largest radii) no slot can touch, since every slot's points lie on the axes: its slots
+    are cleared here, in the loop, and only a pair within reach pays the call of
+    ``_pair_contacts`` (some thirty arrays passed; on the wedge 20 mm in, three pairs in
+    four are apart). Axes whose boxes are farther apart than that (with the pair list's
+    margin) settle it without the segments' closest points."""
+    x = nodes[0]
+    rad = nodes[3]
+    bi = segs[0]
+    bj = segs[1]
+    a = lst[0][p]
+    b = lst[1][p]
+    ia = bi[a]
+    ja = bj[a]
+    ib = bi[b]
+    jb = bj[b]
+    reach = max(rad[ia], rad[ja]) + max(rad[ib], rad[jb])
+    apart = _box_gap2(x, ia, ja, ib, jb) > reach * reach * (1.0 + 1e-9)
+    s0 = 0.0
+    t0 = 0.0
+    if not apart:
+        s0, t0 = segment_segment_closest(row3(x, ia), row3(x, ja), row3(x, ib), row3(x, jb))
+        gx = x[ia, 0] + s0 * (x[ja, 0] - x[ia, 0]) - x[ib, 0] - t0 * (x[jb, 0] - x[ib, 0])
+        gy = x[ia, 1] + s0 * (x[ja, 1] - x[ia, 1]) - x[ib, 1] - t0 * (x[jb, 1] - x[ib, 1])
+        gz = x[ia, 2] + s0 * (x[ja, 2] - x[ia, 2]) - x[ib, 2] - t0 * (x[jb, 2] - x[ib, 2])
+        apart = gx * gx + gy * gy + gz * gz >= reach * reach
+    if apart:
+        active, diss, xf = out[0], out[6], out[8]
+        ft = lst[2]
+        base = p * NSLOT
+        for k in range(NSLOT):
+            active[base + k] = 0
+            clear_history(ft, base + k, friction, diss)
+        for r in range(4):
+            for c in range(3):
+                xf[base + 4, r, c] = 0.0
+    else:
+        _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt, s0, t0)
 
 
 @item_kernel
@@ -258,20 +300,32 @@ def _point_overlap(x, rad, j0, j1, px, py, pz, reject=-math.inf):
     return rad[j0] + t * (rad[j1] - rad[j0]) - math.sqrt(qx * qx + qy * qy + qz * qz), t
 
 
+BEAT_MARGIN = 1e-9   # of a segment's radii: see best_of_neighbours
+
+
 @item_kernel
 def best_of_neighbours(x, rad, bi, bj, bond_prev, bond_next, seg, ov, px, py, pz):
     """A point touches a bristle where its overlap with the bristle's segments is a local
     maximum: keep segment ``seg`` only if its overlap ``ov`` beats the previous segment's
     and is at least the next one's. At a tie both give the same contact, so the contact
-    hands over continuously, and a convex joint is counted once."""
+    hands over continuously, and a convex joint is counted once. A neighbour whose overlap
+    bound (``_point_overlap``) lies ``BEAT_MARGIN`` of its radii below ``ov`` cannot beat it
+    and skips the taper's refinement (the margin is far above the refined overlap's
+    rounding, so every answer is the refined one's)."""
     pb = bond_prev[bi[seg]]
     if pb >= 0:
-        o, _t = _point_overlap(x, rad, bi[pb], bj[pb], px, py, pz)
+        j0 = bi[pb]
+        j1 = bj[pb]
+        o, _t = _point_overlap(x, rad, j0, j1, px, py, pz,
+                               ov - BEAT_MARGIN * (rad[j0] + rad[j1]))
         if o >= ov:
             return False
     nb = bond_next[bj[seg]]
     if nb >= 0:
-        o, _t = _point_overlap(x, rad, bi[nb], bj[nb], px, py, pz)
+        j0 = bi[nb]
+        j1 = bj[nb]
+        o, _t = _point_overlap(x, rad, j0, j1, px, py, pz,
+                               ov - BEAT_MARGIN * (rad[j0] + rad[j1]))
         if o > ov:
             return False
     return True
@@ -335,7 +389,9 @@ def crossing_weight_forces(x, rad, i0, i1, j0, j1, s, t, ov, kn, out, fa):
 
 
 @item_kernel
-def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt):
+def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt, s0, t0):
+    """The slots of a pair whose capsules are within reach (``_pair``), ``(s0, t0)`` the
+    closest points of its axes."""
     x, v, w, rad, mass, bond_prev, bond_next = nodes
     bi, bj, seg_has_next, seg_material = segs
     pa, pb, ft = lst
@@ -344,22 +400,6 @@ def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt):
     a = pa[p]
     b = pb[p]
     base = p * NSLOT
-    # the capsules apart (axis distance beyond both segments' largest radii): no slot can
-    # touch, since every slot's points lie on the axes
-    s0, t0 = segment_segment_closest(row3(x, bi[a]), row3(x, bj[a]), row3(x, bi[b]), row3(x, bj[b]))
-    gx = (x[bi[a], 0] + s0 * (x[bj[a], 0] - x[bi[a], 0])
-          - x[bi[b], 0] - t0 * (x[bj[b], 0] - x[bi[b], 0]))
-    gy = (x[bi[a], 1] + s0 * (x[bj[a], 1] - x[bi[a], 1])
-          - x[bi[b], 1] - t0 * (x[bj[b], 1] - x[bi[b], 1]))
-    gz = (x[bi[a], 2] + s0 * (x[bj[a], 2] - x[bi[a], 2])
-          - x[bi[b], 2] - t0 * (x[bj[b], 2] - x[bi[b], 2]))
-    reach = (max(rad[bi[a]], rad[bj[a]]) + max(rad[bi[b]], rad[bj[b]]))
-    if gx * gx + gy * gy + gz * gz >= reach * reach:
-        for k in range(NSLOT):
-            active[base + k] = 0
-            clear_history(ft, base + k, friction, diss)
-        xf[base + 4, :, :] = 0.0
-        return
     for k in range(NSLOT):
         slot = base + k
         diss[slot] = 0.0
@@ -401,7 +441,8 @@ def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt):
             qy_ = x[j0, 1] + t * (x[j1, 1] - x[j0, 1])
             qz_ = x[j0, 2] + t * (x[j1, 2] - x[j0, 2])
         else:
-            s, t = segment_segment_closest(row3(x, i0), row3(x, i1), row3(x, j0), row3(x, j1))
+            s = s0   # the axes' closest points, as _pair found them (first = a)
+            t = t0
             d1x = x[i1, 0] - x[i0, 0]
             d1y = x[i1, 1] - x[i0, 1]
             d1z = x[i1, 2] - x[i0, 2]
@@ -420,7 +461,9 @@ def _pair_contacts(p, nodes, segs, lst, tabs, out, friction, dt):
             if weight <= 0.0:
                 active[slot] = 0
                 clear_history(ft, slot, friction, diss)
-                xf[slot, :, :] = 0.0
+                for r in range(4):
+                    for c in range(3):
+                        xf[slot, r, c] = 0.0
                 continue
             px_ = x[i0, 0] + s * d1x
             py_ = x[i0, 1] + s * d1y
