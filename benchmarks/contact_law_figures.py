@@ -8,7 +8,7 @@ It reuses the scenes and the reference of ``tests/engine/test_verification_impac
 Impact: rebound normal and tangential speed and spin against the reference, the largest
 |F_t| / F_n over the recorded frames with F_n > 0, the frames where F_n = 0 but |F_t| > 0
 and the largest |F_t| there. Books: the largest |total + dissipated - external work - E0|
-/ E0 over the run at the automatic dt and at 1/2, 1/4 of it (``--books``, slower).
+/ E0 over the run at the automatic dt and at 1/2, 1/4, 1/8 of it (``--books``, slower).
 Rods (``--rods``): the automatic dt of one steel rod of the rod presets (0.4 m, 36 nodes)
 against two of them 0.2 m apart (their tips can reach each other), and of 0.05 m rods (they
 cannot).
@@ -62,7 +62,7 @@ def impact_figures(dt_fraction: float) -> None:
 
 def books_figures() -> None:
     for e in (1.0, 0.5):
-        for fac in (1.0, 0.5, 0.25):
+        for fac in (1.0, 0.5, 0.25, 0.125):
             err, diss, n_bb, n_body = books.balance(e, fac)
             print(f"books e={e:g} dt x {fac:g}: max |error| / E0 = {err:.4%}, dissipated "
                   f"{diss:.2%} of E0, contacts bb {n_bb} body {n_body}", flush=True)
