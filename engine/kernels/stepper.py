@@ -29,7 +29,7 @@ from .patch import patch_contacts
 from .orbit import nodes_kick_drift_cw, orbit_body_forces
 from .contacts import bristle_bristle_narrow, scatter_bristle_bristle
 from .jit import item_kernel
-from .neighbours import lists_stale, rebuild_lists
+from .neighbours import body_displacement, lists_stale, node_displacement_one, rebuild_lists
 from .rotations import qexp, qmul, qnormalize, qrot
 from ..state import (LIMIT_BODY_STEP, LIMIT_LOCAL_DAMPING, LIMIT_NODE_STEP, LIMIT_OVERLAP,
                      LIMIT_SKIN)
@@ -40,6 +40,9 @@ from ..state import (ACC_DISSIPATED, ACC_E_BB, ACC_E_BODY, ACC_E_BODYBODY, ACC_M
                      FAIL_OVERLAP_BODYBODY, OK, SLOT_BODY_BODY, SLOT_BONDS, SLOT_BRISTLE_BODY,
                      SLOT_BRISTLE_BRISTLE, SLOT_CHECKS, SLOT_EXTERNAL, SLOT_INTEGRATE,
                      SLOT_NEIGHBOUR_LIST)
+
+
+WATCH_CHUNK = 4096   # nodes per parallel task of ``nodes_kick_watch``
 
 
 @njit(cache=True)
@@ -87,6 +90,29 @@ def nodes_kick(v, w, f, t, inv_mass, inv_inertia, dt):
     else:
         for n in range(v.shape[0]):
             _kick(n, v, w, f, t, inv_mass, inv_inertia, dt)
+
+
+@njit(cache=True, parallel=True)
+def nodes_kick_watch(x, x_build, v, w, f, t, inv_mass, inv_inertia, dt):
+    """:func:`nodes_kick`, returning what ``neighbours.node_displacement`` would return
+    right after it (the next step's check of the neighbour lists, taken in the same pass
+    over the nodes, with the same numbers: the same floats, and so the same rebuilds)."""
+    n = v.shape[0]
+    if n >= PARALLEL_MIN:  # the twin loops: engine.kernels.bonds.PARALLEL_MIN
+        nchunk = (n + WATCH_CHUNK - 1) // WATCH_CHUNK
+        part = np.zeros(nchunk)
+        for c in prange(nchunk):
+            worst = 0.0
+            for k in range(c * WATCH_CHUNK, min(n, (c + 1) * WATCH_CHUNK)):
+                _kick(k, v, w, f, t, inv_mass, inv_inertia, dt)
+                worst = node_displacement_one(k, x, x_build, v, f, inv_mass, dt, worst)
+            part[c] = worst
+        return part.max()
+    worst = 0.0
+    for k in range(n):
+        _kick(k, v, w, f, t, inv_mass, inv_inertia, dt)
+        worst = node_displacement_one(k, x, x_build, v, f, inv_mass, dt, worst)
+    return worst
 
 
 @njit(cache=True, inline="always")
@@ -389,6 +415,11 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
     skin = limits[LIMIT_SKIN]
     orbit_n = ms.orbit[0] if fl.orbit else 0.0
     stats = np.zeros(5)
+    watch = fl.bristle_bristle or fl.bristle_body
+    # the nodes' part of the lists' check for the coming step, from the last step's second
+    # half kick (nodes_kick_watch); below zero at a call's first step, which takes it afresh
+    # (between calls the caller may have moved nodes or rebuilt the lists)
+    node_move = -1.0
     if acc[ACC_STEPS] == 0:
         # the first half kick needs the forces of the initial state (the later ones use the
         # forces the step before left in place, across calls too): without them a load
@@ -403,8 +434,12 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         if timed:
             c0 = _clock()
         # ---- neighbour lists valid for the coming drift?
-        if fl.bristle_bristle or fl.bristle_body:
-            if lists_stale(nd, bd, dt, skin):
+        if watch:
+            if node_move < 0.0:
+                stale = lists_stale(nd, bd, dt, skin)
+            else:
+                stale = node_move + body_displacement(bd, dt) > 0.5 * skin
+            if stale:
                 code = rebuild_lists(nd, bn, bd, pl, bl, fl, skin)
                 if code != OK:
                     return code, it
@@ -441,7 +476,11 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
         if timed:
             c8 = _clock()
         # ---- second half kick
-        nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
+        if watch:
+            node_move = nodes_kick_watch(nd.x, nd.x_build, nd.v, nd.w, nd.f, nd.t,
+                                         nd.inv_mass, nd.inv_inertia, dt)
+        else:
+            nodes_kick(nd.v, nd.w, nd.f, nd.t, nd.inv_mass, nd.inv_inertia, dt)
         if fl.rigid_bodies:
             bodies_half_kick(bd, tb, acc, dt, orbit_n)
         acc[ACC_STEPS] += 1
