@@ -80,7 +80,7 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
           bf, bti, btj, benergy, bdiss, bbend, damped, want_energy, dt):
     Fx, Fy, Fz, Tix, Tiy, Tiz, Tjx, Tjy, Tjz = _bond_eval(
         b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy, bdiss, bbend,
-        damped, want_energy, dt)
+        damped, want_energy, want_energy, dt)
     bf[b, 0] = Fx
     bf[b, 1] = Fy
     bf[b, 2] = Fz
@@ -93,7 +93,7 @@ def _bond(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
 
 
 @njit(cache=True, parallel=True)
-def bond_node_forces(nd, bn, damped, want_energy, dt):
+def bond_node_forces(nd, bn, damped, want_diss, want_energy, dt):
     """Set each node's force and torque to the sum of its (at most two) bonds' actions, in one
     pass over nodes, without per-bond arrays.
 
@@ -102,8 +102,10 @@ def bond_node_forces(nd, bn, damped, want_energy, dt):
     bristle). A chunk's first node re-evaluates its previous bond (nothing is shared between
     chunks, so chunks run in parallel race-free). The sums are taken in the same order as
     a per-node gather of ``bond_forces``' per-bond actions, so the result equals it exactly. This
-    is the first force stage of a step: it overwrites ``f`` and ``t``. Energies (written
-    when ``want_energy``) are written by the evaluation as a next bond only.
+    is the first force stage of a step: it overwrites ``f`` and ``t``. The dissipation
+    (written when ``want_diss``: every step of a damped run that books its energy) and the
+    energies and bending moments (when ``want_energy``: the step the caller reads them) are
+    written by the evaluation as a next bond only.
     """
     x, v, q, w, f, t = nd.x, nd.v, nd.q, nd.w, nd.f, nd.t
     bond_prev, bond_next = nd.bond_prev, nd.bond_next
@@ -116,15 +118,15 @@ def bond_node_forces(nd, bn, damped, want_energy, dt):
         for c in prange(nchunk):
             _bond_chunk(c * NODE_CHUNK, min(n, (c + 1) * NODE_CHUNK), x, v, q, w, bi, bj, kn,
                         ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev, bond_next, f, t, benergy,
-                        bdiss, bbend, damped, want_energy, dt)
+                        bdiss, bbend, damped, want_diss, want_energy, dt)
     else:
         _bond_chunk(0, n, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
-                    bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt)
+                    bond_next, f, t, benergy, bdiss, bbend, damped, want_diss, want_energy, dt)
 
 
 @njit(cache=True, inline="always")
 def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, bond_prev,
-                bond_next, f, t, benergy, bdiss, bbend, damped, want_energy, dt):
+                bond_next, f, t, benergy, bdiss, bbend, damped, want_diss, want_energy, dt):
     last = -1          # the bond evaluated as the previous node's next bond ...
     cFx = 0.0          # ... its force on node i and its torque on node j
     cFy = 0.0
@@ -149,7 +151,7 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
         if bn_ >= 0:
             nFx, nFy, nFz, Tix, Tiy, Tiz, nTx, nTy, nTz = _bond_eval(
                 bn_, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy, bdiss,
-                bbend, damped, want_energy, dt)
+                bbend, damped, want_diss, want_energy, dt)
             fx += nFx
             fy += nFy
             fz += nFz
@@ -161,7 +163,7 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
             if bp != last:
                 cFx, cFy, cFz, _x, _y, _z, cTx, cTy, cTz = _bond_eval(
                     bp, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, benergy,
-                    bdiss, bbend, damped, False, dt)
+                    bdiss, bbend, damped, False, False, dt)
             fx -= cFx
             fy -= cFy
             fz -= cFz
@@ -190,7 +192,7 @@ def _cross(ax, ay, az, bx, by, bz):
 
 @njit(cache=True, inline="always")
 def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
-               benergy, bdiss, bbend, damped, want_energy, dt):
+               benergy, bdiss, bbend, damped, want_diss, want_energy, dt):
     """One bond: returns the force on node i (node j gets its negative) and the torques on
     i and j. Energy U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2)
     + ksb (d_x phi_y - d_y phi_x) + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with
@@ -198,7 +200,9 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
     midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
     exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
     so undamped bristles conserve energy for any rotation; the torques sum to r x F, so
-    angular momentum is conserved too."""
+    angular momentum is conserved too. Writes the damping's dissipation of this step
+    (``bdiss``) when ``want_diss``, the elastic energy and bending moment when
+    ``want_energy``."""
     i = bi[b]
     j = bj[b]
     qiw, qix, qiy, qiz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
@@ -329,7 +333,7 @@ def _bond_eval(b, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
         Tjx += -dmx + hx_
         Tjy += -dmy + hy_
         Tjz += -dmz + hz_
-        if want_energy:
+        if want_diss:
             bdiss[b] = dt * (cs[b] * (lvx * lvx + lvy * lvy) + cn[b] * lvz * lvz
                              + cb[b] * (ox * ox + oy * oy) + ct[b] * oz * oz)
     if want_energy:

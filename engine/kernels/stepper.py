@@ -294,7 +294,8 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
     state without booking anything and without moving any contact's tangential spring (the
     start of a run, :func:`advance`); ``c0`` is the clock at entry when ``timed``."""
     if fl.bonds:
-        bond_node_forces(nd, bn, fl.bond_damping, want_energy, dt)
+        bond_node_forces(nd, bn, fl.bond_damping, fl.track_energy and fl.bond_damping,
+                         want_energy, dt)
         if fl.track_energy and fl.bond_damping:
             acc[ACC_DISSIPATED] += bn.diss.sum()
     else:
@@ -467,7 +468,7 @@ def advance(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt, n_step
             stage_time[SLOT_INTEGRATE] += c2 - c1
         # ---- forces
         last = it == n_steps - 1
-        want_energy = fl.track_energy and (last or fl.bond_damping)
+        want_energy = fl.track_energy and last
         code = evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt,
                                limits, ms, t_new, want_energy, timed, c2 if timed else 0.0,
                                stats, orbit_n, pa)
