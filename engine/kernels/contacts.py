@@ -61,14 +61,23 @@ def _box_gap2(x, ia, ja, ib, jb):
 def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_rmax):
     """All pairs (a < b) of segments of different bristles whose capsules (axis distance
     minus the largest radii) are closer than ``skin``, sorted by (a, b). Candidates come from
-    a cell list over the segments' bounding spheres. No point of a segment moves further than
+    a cell list over the segments' midpoints, its cells as long along each axis as the
+    segments' boxes are; their bounding spheres, then their axes' boxes prefilter. No point of a segment moves further than
     its farthest node, so the list stays complete while every node has moved less than
     skin / 2. Returns the number of pairs; if it exceeds the capacity of ``out_a`` nothing
     past the capacity is written and the caller must grow and retry."""
     ns = mid.shape[0]
     if ns == 0:
         return 0
-    rmax = 0.0
+    # per axis, the largest half-extent of a segment's axis box plus its largest radius: two
+    # segments within reach (their axes' boxes at most rmax_a + rmax_b + skin apart along
+    # each axis, the box test below) have midpoints at most 2 h + skin apart along it, so a
+    # cell that long holds every partner in the 27 cells around. Cells shaped by the
+    # segments' boxes, not their bounding spheres: a brush's segments are long along the
+    # bristles and thin across, and spheres made cubes that held several rows of bristles
+    h0 = 0.0
+    h1 = 0.0
+    h2 = 0.0
     lo0 = mid[0, 0]
     lo1 = mid[0, 1]
     lo2 = mid[0, 2]
@@ -76,29 +85,39 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
     hi1 = lo1
     hi2 = lo2
     for s in range(ns):
-        rmax = max(rmax, bound[s])
+        i = bi[s]
+        j = bj[s]
+        r = seg_rmax[s]
+        h0 = max(h0, 0.5 * abs(x[j, 0] - x[i, 0]) + r)
+        h1 = max(h1, 0.5 * abs(x[j, 1] - x[i, 1]) + r)
+        h2 = max(h2, 0.5 * abs(x[j, 2] - x[i, 2]) + r)
         lo0 = min(lo0, mid[s, 0])
         lo1 = min(lo1, mid[s, 1])
         lo2 = min(lo2, mid[s, 2])
         hi0 = max(hi0, mid[s, 0])
         hi1 = max(hi1, mid[s, 1])
         hi2 = max(hi2, mid[s, 2])
-    cell = 2.0 * rmax + skin
+    # the margin covers the rounding of the midpoints and of the box test's own 1e-9
+    cell0 = (2.0 * h0 + skin) * (1.0 + 1e-6)
+    cell1 = (2.0 * h1 + skin) * (1.0 + 1e-6)
+    cell2 = (2.0 * h2 + skin) * (1.0 + 1e-6)
     # keep the grid at most ~2 cells per segment (and finite) however spread the scene is
     while True:
-        d0 = int((hi0 - lo0) / cell) + 1
-        d1 = int((hi1 - lo1) / cell) + 1
-        d2 = int((hi2 - lo2) / cell) + 1
+        d0 = int((hi0 - lo0) / cell0) + 1
+        d1 = int((hi1 - lo1) / cell1) + 1
+        d2 = int((hi2 - lo2) / cell2) + 1
         if d0 * d1 * d2 <= 2 * ns + 64:
             break
-        cell *= 1.26
+        cell0 *= 1.26
+        cell1 *= 1.26
+        cell2 *= 1.26
     ncell = d0 * d1 * d2
     cid = np.empty(ns, np.int64)
     count = np.zeros(ncell + 1, np.int64)
     for s in range(ns):
-        c0 = min(int((mid[s, 0] - lo0) / cell), d0 - 1)
-        c1 = min(int((mid[s, 1] - lo1) / cell), d1 - 1)
-        c2 = min(int((mid[s, 2] - lo2) / cell), d2 - 1)
+        c0 = min(int((mid[s, 0] - lo0) / cell0), d0 - 1)
+        c1 = min(int((mid[s, 1] - lo1) / cell1), d1 - 1)
+        c2 = min(int((mid[s, 2] - lo2) / cell2), d2 - 1)
         c = (c0 * d1 + c1) * d2 + c2
         cid[s] = c
         count[c + 1] += 1

@@ -26,12 +26,38 @@ def _chains(rng, n_bristles, n_nodes, spread, step):
     return x, rad, bi, bj, np.repeat(np.arange(n_bristles), n_nodes - 1)
 
 
-@pytest.mark.parametrize("n_bristles,spread,step", [(60, 0.03, 0.006), (200, 0.05, 0.004),
-                                                    (40, 2.0, 0.01)])
-def test_pair_list_finds_each_pair_within_the_skin_once(n_bristles, spread, step):
-    rng = np.random.default_rng(n_bristles)
-    x, rad, bi, bj, bristle = _chains(rng, n_bristles, 6, spread, step)
-    skin = 1e-3
+def _brush(rng, rows, cols, n_nodes, pitch, length, tilt):
+    """A brush: rows x cols bristles on a square grid of ``pitch``, each a chain along z of
+    ``length`` with lateral steps of ``tilt`` times the segment length (random signs), so
+    that the segments' boxes are long along z and thin across, the cell list's shaped cells;
+    node radii 0.4 to 0.6 of the pitch, so neighbours and next-but-one neighbours come near."""
+    n_bristles = rows * cols
+    x = np.empty((n_bristles * n_nodes, 3))
+    seg = length / (n_nodes - 1)
+    for b in range(n_bristles):
+        p = np.array([(b % cols) * pitch, (b // cols) * pitch, 0.0])
+        for k in range(n_nodes):
+            x[b * n_nodes + k] = p
+            p = p + np.array([*(rng.uniform(-tilt, tilt, 2) * seg), seg])
+    rad = rng.uniform(0.4, 0.6, len(x)) * pitch
+    first = np.arange(n_bristles)[:, None] * n_nodes
+    bi = (first + np.arange(n_nodes - 1)).ravel()
+    bj = bi + 1
+    return x, rad, bi, bj, np.repeat(np.arange(n_bristles), n_nodes - 1)
+
+
+@pytest.mark.parametrize("kind,n_bristles,spread,step", [
+    ("chains", 60, 0.03, 0.006), ("chains", 200, 0.05, 0.004), ("chains", 40, 2.0, 0.01),
+    # brushes: straight-ish (cells much longer than wide), and one bristle row bent far
+    # over (cells as wide as its tilted segments)
+    ("brush", 12, 0.002, 0.05), ("brush", 12, 0.002, 0.8)])
+def test_pair_list_finds_each_pair_within_the_skin_once(kind, n_bristles, spread, step):
+    rng = np.random.default_rng(n_bristles + int(step * 1000))
+    if kind == "chains":
+        x, rad, bi, bj, bristle = _chains(rng, n_bristles, 6, spread, step)
+    else:
+        x, rad, bi, bj, bristle = _brush(rng, n_bristles, n_bristles, 6, spread, 0.04, step)
+    skin = 1e-3 if kind == "chains" else 0.1 * spread
     ns = len(bi)
     mid, bound = np.empty((ns, 3)), np.empty(ns)
     segment_bounds(x, rad, bi, bj, mid, bound)
