@@ -13,9 +13,12 @@ and each is timed alone, in ns per pair:
 * ``touching``: at least one slot in contact (the contact law too);
 * ``all``: the list as the step loop has it.
 
-Also the whole step (``run_steps`` from the state, median of 3). Usage (repository root)::
+Also the pair list's rebuild (``contacts.segment_bounds`` and ``build_pair_list`` from the
+state, us per rebuild; ``--detumble`` adds it for ``detumble_upper_stage`` 3,000 steps in,
+whose 17 x 5 brush of long segments has no pair touching) and the whole step
+(``run_steps`` from the state, median of 3). Usage (repository root)::
 
-    NUMBA_NUM_THREADS=1 python benchmarks/pair_kernel.py [--repeats 5] [--depths 20 33]
+    NUMBA_NUM_THREADS=1 python benchmarks/pair_kernel.py [--repeats 5] [--depths 20 33] [--detumble]
 """
 from __future__ import annotations
 
@@ -32,8 +35,10 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from bond_kernel import wedge_system  # noqa: E402
-from engine.kernels.contacts import NSLOT, bristle_bristle_narrow  # noqa: E402
+from bond_kernel import detumble_system, wedge_system  # noqa: E402
+from engine.kernels.contacts import (NSLOT, bristle_bristle_narrow,  # noqa: E402
+                                     build_pair_list, segment_bounds)
+from engine.state import LIMIT_SKIN  # noqa: E402
 from engine.kernels.geometry import segment_segment_closest  # noqa: E402
 from engine.stepping.loop import run_steps  # noqa: E402
 
@@ -42,6 +47,30 @@ from engine.stepping.loop import run_steps  # noqa: E402
 def _calls(nd, bn, pl, tb, friction, dt, n):
     for _ in range(n):
         bristle_bristle_narrow(nd, bn, pl, tb, friction, dt)
+
+
+@njit
+def _rebuilds(nd, bn, pl, skin, n):
+    found = 0
+    for _ in range(n):
+        segment_bounds(nd.x, nd.rad, bn.i, bn.j, bn.mid, bn.bound)
+        found = build_pair_list(bn.mid, bn.bound, bn.bristle, skin, pl.a2, pl.b2, nd.x, bn.i,
+                                bn.j, bn.rmax)
+    return found
+
+
+def rebuild_us(system, repeats: int, calls: int = 200) -> tuple[float, int]:
+    """(CPU us per rebuild of the pair list from the system's state, pairs it finds); the
+    list's second rows only, which the step loop copies from after a rebuild."""
+    nd, bn, pl = system.nodes, system.bonds, system.pairs
+    skin = float(system.limits[LIMIT_SKIN])
+    found = _rebuilds(nd, bn, pl, skin, 1)
+    out = []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        _rebuilds(nd, bn, pl, skin, calls)
+        out.append((time.process_time() - t0) / calls * 1e6)
+    return statistics.median(out), int(found)
 
 
 def _apart(system, a, b) -> np.ndarray:
@@ -85,6 +114,9 @@ def measure(depth_mm: float, repeats: int, calls: int) -> None:
             _calls(nd, bn, pl, tb, friction, dt, calls)
             out.append((time.process_time() - t0) / calls / k * 1e9)
         print(f"  {name:<9} {k:5d} pairs  {statistics.median(out):7.1f} ns per pair")
+    system.restore_state(snap)
+    us, found = rebuild_us(system, repeats)
+    print(f"  list rebuild {us:7.1f} us ({bn.i.shape[0]} segments, {found} pairs)")
     out = []
     for _ in range(3):
         system.restore_state(snap)
@@ -99,9 +131,16 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--calls", type=int, default=2000)
     ap.add_argument("--depths", type=float, nargs="+", default=[20.0, 33.0])
+    ap.add_argument("--detumble", action="store_true",
+                    help="also the pair list's rebuild on detumble_upper_stage")
     args = ap.parse_args(argv)
     for d in args.depths:
         measure(d, args.repeats, args.calls)
+    if args.detumble:
+        system = detumble_system()
+        us, found = rebuild_us(system, args.repeats)
+        print(f"detumble_upper_stage ({system.n_nodes} nodes): list rebuild {us:7.1f} us "
+              f"({system.bonds.i.shape[0]} segments, {found} pairs)")
     return 0
 
 
