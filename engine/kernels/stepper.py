@@ -222,12 +222,35 @@ def add_loads(ld, f, v, time, dt):
 
 
 @item_kernel
-def local_damping(f, t, v, w, inv_mass, alpha, dt):
+def local_damping(f, t, v, w, inv_mass, alpha, dt, want_diss):
     """Cundall's non-viscous damping: each force component is reduced by alpha |F| against
-    the velocity. Returns the energy it dissipated this step."""
+    the velocity. Returns the energy it dissipated this step when ``want_diss`` (a run that
+    books its energy), else 0.0 without summing it."""
     # branch-free (sign of the velocity as a number), so the loop vectorises: the signs
-    # of a relaxing brush's velocities are random, and branches on them mispredicted
+    # of a relaxing brush's velocities are random, and branches on them mispredicted. The
+    # dissipation's running sum cannot be vectorised without reordering it, so a run that
+    # does not book it takes the loop without it
     diss = 0.0
+    if not want_diss:
+        # the (n, 3) arrays as flat rows, which the compiler vectorises (2.4 against 6.5 ns
+        # a node on the wedge's brush); the same operations on the same numbers
+        F = f.reshape(f.size)
+        T = t.reshape(t.size)
+        V = v.reshape(v.size)
+        Om = w.reshape(w.size)
+        for n in range(f.shape[0]):
+            free = 1.0 if inv_mass[n] != 0.0 else 0.0
+            for a in range(3):
+                k = 3 * n + a
+                fa = F[k]
+                va = V[k]
+                ta = T[k]
+                wa = Om[k]
+                sv = free * ((va > 0.0) - (va < 0.0))
+                sw = free * ((wa > 0.0) - (wa < 0.0))
+                F[k] = fa - sv * alpha * abs(fa)
+                T[k] = ta - sw * alpha * abs(ta)
+        return diss
     for n in range(f.shape[0]):
         free = 1.0 if inv_mass[n] != 0.0 else 0.0
         for a in range(3):
@@ -390,7 +413,8 @@ def evaluate_forces(nd, bn, rt, bd, pl, bl, ld, tb, fl, acc, err, stage_time, dt
                                            dt)
     if fl.local_damping:
         acc[ACC_DISSIPATED] += local_damping(nd.f, nd.t, nd.v, nd.w, nd.inv_mass,
-                                             limits[LIMIT_LOCAL_DAMPING], dt)
+                                             limits[LIMIT_LOCAL_DAMPING], dt,
+                                             fl.track_energy)
     if fl.track_energy and (fl.bristle_body or fl.mounted_roots or fl.patches):
         # work done by whatever drives kinematic bodies against the contact forces
         for k in range(bd.pos.shape[0]):

@@ -71,7 +71,10 @@ def actuator_wrench(system: System, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def energies(system: System) -> dict[str, float]:
-    """Energies of the current state (J). Bond energy is that of the last force evaluation."""
+    """Energies of the current state (J). Bond energy is that of the last force evaluation.
+    ``dissipated`` and ``external_work`` are running books of the run; the step loop keeps
+    the bond damping's and the local damping's share of ``dissipated`` only in a run that
+    records the ``energy`` channel (``Flags.track_energy``), so read them from such a run."""
     nd, bd = system.nodes, system.bodies
     free = nd.inv_mass > 0
     kin = 0.5 * float(np.sum(nd.mass[free] * np.sum(nd.v[free] ** 2, axis=1)))
