@@ -13,6 +13,10 @@ repeats, in ns per bond or per node. Printed per state:
   variants without damping, with damping, and with damping and the energies;
 * ``kick+drift`` and ``kick``: the node integration (the Hill-frame drift with an orbit);
   these and the bonds are timed from a compiled loop, so no call from Python is counted;
+* ``local damping`` and ``local damping +diss``: Cundall's damping of the node forces
+  (``stepper.local_damping``), without and with the dissipation's running sum (a run that
+  books energy), timed with a zero coefficient so that repeated calls leave the forces
+  alone (the same instructions as any coefficient);
 * ``step``: a whole step of the engine (``engine.run`` without recording), per node.
 
 It runs on older commits too (``bond_node_forces`` before the dissipation had its own switch
@@ -82,7 +86,7 @@ def kernel_figures(system, repeats: int) -> dict:
     import engine
     from engine.kernels.bonds import bond_node_forces
     from engine.kernels.orbit import nodes_kick_drift_cw
-    from engine.kernels.stepper import nodes_kick, nodes_kick_drift
+    from engine.kernels.stepper import local_damping, nodes_kick, nodes_kick_drift
     fl = system.flags
     nd, bn = system.nodes, system.bonds
     dt = system.dt
@@ -135,11 +139,26 @@ def kernel_figures(system, repeats: int) -> dict:
         for _ in range(n):
             nodes_kick(v, w, f, t, im, ii, dt)
 
+    if local_damping.py_func.__code__.co_argcount == 7:
+        # before a run that books no energy had the loop without the dissipation's sum
+        @njit
+        def damping_loop(f, t, v, w, im, diss, n):
+            for _ in range(n):
+                local_damping(f, t, v, w, im, 0.0, dt)
+    else:
+        @njit
+        def damping_loop(f, t, v, w, im, diss, n):
+            for _ in range(n):
+                local_damping(f, t, v, w, im, 0.0, dt, diss)
+
     orbit_n = float(system.mission.orbit[0]) if fl.orbit else 0.0
     r["kick+drift"] = per_node(lambda n: kd_loop(nd.x, nd.v, nd.q, nd.w, nd.f, nd.t,
                                                  nd.inv_mass, nd.inv_inertia, dt, orbit_n, n))
     r["kick"] = per_node(lambda n: kick_loop(nd.v, nd.w, nd.f, nd.t, nd.inv_mass,
                                              nd.inv_inertia, dt, n))
+    for diss in (False, True):
+        r[f"local damping{' +diss' if diss else ''}"] = per_node(
+            lambda n: damping_loop(nd.f, nd.t, nd.v, nd.w, nd.inv_mass, diss, n))
     n_steps = max(200, 200_000 // n_nodes)
     step = lambda: engine.run(system, until=system.time + n_steps * dt,  # noqa: E731
                               output=False)
@@ -161,7 +180,7 @@ def main() -> None:
               f"dissipation every step {r['diss_every_step']}, orbit {r['orbit']}")
         for k in ("bonds as the loop", "bonds undamped", "bonds damped", "bonds damped+energy"):
             print(f"  {k:<20} {r[k]:7.1f} ns/bond")
-        for k in ("kick+drift", "kick", "step"):
+        for k in ("kick+drift", "kick", "local damping", "local damping +diss", "step"):
             print(f"  {k:<20} {r[k]:7.1f} ns/node")
 
 
