@@ -26,7 +26,7 @@ so linear and angular momentum are conserved to round-off.
 The bonds are evaluated in blocks, in passes that the compiler turns into SIMD loops: the
 block's bonds' node states and constants are gathered into rows of one scratch array
 (``_gather``), then each pass runs over the block's bonds reading and writing whole rows
-(``_relative_rotation``, ``_law``, ``_damping``, ``_energies``), and only the relative
+(``_relative_rotation``, ``_law``, ``_damping``), and only the relative
 rotation's angle, which calls libm's ``atan2``, has a scalar pass (``_angle``). Every
 number is the one the per-bond evaluation computed, operation for operation: IEEE sums,
 products, quotients and square roots round the same in a vector lane, each branch of the
@@ -237,11 +237,9 @@ def _evaluate(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb
     _gather(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, damped)
     _relative_rotation(W, m)
     _angle(W, m)
-    _law(W, m)
+    _law(W, m, want_energy)
     if damped:
         _damping(W, m, dt)
-    if want_energy:
-        _energies(W, m)
 
 
 @njit(cache=True)
@@ -328,9 +326,9 @@ def _angle(W, m):
 
 
 @njit(cache=True, error_model="numpy")
-def _law(W, m):
-    """Force on node i and torques on i and j of each bond (undamped), and the midpoint
-    frame. U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2) + ksb (d_x phi_y - d_y phi_x)
+def _law(W, m, want_energy):
+    """Force on node i and torques on i and j of each bond (undamped), the midpoint frame,
+    and where ``want_energy`` each bond's elastic energy and bending moment |m_xy|. U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2) + ksb (d_x phi_y - d_y phi_x)
     + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with d = R_m^T r the bond vector in the
     midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
     exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
@@ -446,6 +444,11 @@ def _law(W, m):
         W[_MX * _ST + s] = mx
         W[_MY * _ST + s] = my
         W[_MZ * _ST + s] = mz
+        if want_energy:
+            W[_EN * _ST + s] = (0.5 * (kn * ez * ez + ks * (dx * dx + dy * dy)
+                                       + kb * (px * px + py * py) + kt * pz * pz)
+                                + ksb * (dx * py - dy * px))
+            W[_BEND * _ST + s] = math.sqrt(mlx * mlx + mly * mly)
 
 
 @njit(cache=True, error_model="numpy")
@@ -494,35 +497,6 @@ def _damping(W, m, dt):
         W[_TJZ * _ST + s] += -dmz + hz_
         W[_DISS * _ST + s] = dt * (cs * (lvx * lvx + lvy * lvy) + cn * lvz * lvz
                                    + cb * (ox * ox + oy * oy) + ct * oz * oz)
-
-
-@njit(cache=True, error_model="numpy")
-def _energies(W, m):
-    """Each bond's elastic energy U and bending-moment magnitude |m_xy| (the numbers
-    :func:`_law` computes on its way)."""
-    for s in range(m):
-        kn = W[_KN * _ST + s]
-        ks = W[_KS * _ST + s]
-        kb = W[_KB * _ST + s]
-        ksb = W[_KSB * _ST + s]
-        kt = W[_KT * _ST + s]
-        r0 = W[_R0 * _ST + s]
-        r1 = W[_R1 * _ST + s]
-        r2 = W[_R2 * _ST + s]
-        fl = W[_FL * _ST + s]
-        px = fl * W[_RX * _ST + s]
-        py = fl * W[_RY * _ST + s]
-        pz = fl * W[_RZ * _ST + s]
-        length = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-        dx, dy, dz = qrot_inv(W[_MW * _ST + s], W[_MX * _ST + s], W[_MY * _ST + s],
-                              W[_MZ * _ST + s], r0, r1, r2)
-        ez = length - W[_L0 * _ST + s]
-        mlx = kb * px - ksb * dy
-        mly = kb * py + ksb * dx
-        W[_EN * _ST + s] = (0.5 * (kn * ez * ez + ks * (dx * dx + dy * dy)
-                                   + kb * (px * px + py * py) + kt * pz * pz)
-                            + ksb * (dx * py - dy * px))
-        W[_BEND * _ST + s] = math.sqrt(mlx * mlx + mly * mly)
 
 
 @njit(cache=True, inline="always")
