@@ -255,21 +255,17 @@ def _write_energies(W, lst, s0, m, benergy, bdiss, bbend, want_diss, want_energy
 
 @njit(cache=True)
 def _gather(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct, damped):
+    """The node states and constants of the bonds ``lst[:m]`` into the input rows of ``W``
+    (the one pass with the bonds' index arrays)."""
     for s in range(m):
         b = lst[s]
         i = bi[b]
         j = bj[b]
-        W[_QIW * _ST + s] = q[i, 0]
-        W[_QIX * _ST + s] = q[i, 1]
-        W[_QIY * _ST + s] = q[i, 2]
-        W[_QIZ * _ST + s] = q[i, 3]
-        W[_QJW * _ST + s] = q[j, 0]
-        W[_QJX * _ST + s] = q[j, 1]
-        W[_QJY * _ST + s] = q[j, 2]
-        W[_QJZ * _ST + s] = q[j, 3]
-        W[_R0 * _ST + s] = x[j, 0] - x[i, 0]
-        W[_R1 * _ST + s] = x[j, 1] - x[i, 1]
-        W[_R2 * _ST + s] = x[j, 2] - x[i, 2]
+        for c in range(4):
+            W[(_QIW + c) * _ST + s] = q[i, c]
+            W[(_QJW + c) * _ST + s] = q[j, c]
+        for c in range(3):
+            W[(_R0 + c) * _ST + s] = x[j, c] - x[i, c]
         W[_KN * _ST + s] = kn[b]
         W[_KS * _ST + s] = ks[b]
         W[_KB * _ST + s] = kb[b]
@@ -277,15 +273,10 @@ def _gather(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, 
         W[_KT * _ST + s] = kt[b]
         W[_L0 * _ST + s] = L0[b]
         if damped:
-            W[_DV0 * _ST + s] = v[j, 0] - v[i, 0]
-            W[_DV1 * _ST + s] = v[j, 1] - v[i, 1]
-            W[_DV2 * _ST + s] = v[j, 2] - v[i, 2]
-            W[_WI0 * _ST + s] = w[i, 0]
-            W[_WI1 * _ST + s] = w[i, 1]
-            W[_WI2 * _ST + s] = w[i, 2]
-            W[_WJ0 * _ST + s] = w[j, 0]
-            W[_WJ1 * _ST + s] = w[j, 1]
-            W[_WJ2 * _ST + s] = w[j, 2]
+            for c in range(3):
+                W[(_DV0 + c) * _ST + s] = v[j, c] - v[i, c]
+                W[(_WI0 + c) * _ST + s] = w[i, c]
+                W[(_WJ0 + c) * _ST + s] = w[j, c]
             W[_CN * _ST + s] = cn[b]
             W[_CS * _ST + s] = cs[b]
             W[_CB * _ST + s] = cb[b]
@@ -328,7 +319,8 @@ def _angle(W, m):
 @njit(cache=True, error_model="numpy")
 def _law(W, m, want_energy):
     """Force on node i and torques on i and j of each bond (undamped), the midpoint frame,
-    and where ``want_energy`` each bond's elastic energy and bending moment |m_xy|. U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2) + ksb (d_x phi_y - d_y phi_x)
+    and where ``want_energy`` each bond's elastic energy and bending moment |m_xy|.
+    U = 1/2 kn (|r| - L0)^2 + 1/2 ks (d_x^2 + d_y^2) + ksb (d_x phi_y - d_y phi_x)
     + 1/2 (kb (phi_x^2 + phi_y^2) + kt phi_z^2), with d = R_m^T r the bond vector in the
     midpoint frame R_m = R_i exp(phi / 2) and phi = log(q_i^* q_j). Forces and torques are its
     exact gradient (the rotation derivatives use the SO(3) Jacobians of phi and of phi / 2),
