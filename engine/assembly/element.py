@@ -29,7 +29,7 @@ def node_masses(density: float, r_node: np.ndarray, seg_len: float
 def frustum_bond_stiffness(E, G, r0, r1, length):
     """Stiffnesses of the bond between nodes of radii ``r0`` (node i) and ``r1`` (node j), a
     linearly tapered solid circular Euler-Bernoulli frustum of ``length`` (arrays or floats):
-    ``(kn, ks, kb, ksb, kt)`` for the energy of ``bonds._bond_eval``.
+    ``(kn, ks, kb, ksb, kt)`` for the energy of ``bonds._law``.
 
     Axial and twist are the exact frustum compliances, ``1/kn = int dx / (E A(x))`` and
     ``1/kt = int dx / (G J(x))``: ``kn = E pi r0 r1 / L``, ``kt = G pi/2 * 3 r0^3 r1^3 /

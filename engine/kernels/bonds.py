@@ -11,7 +11,7 @@ strains stay small:
   midpoint frame;
 * ``phi = log(q_i^* q_j)``: bending (x, y) and twist (z) rotation vector.
 
-Forces and torques are the exact gradient of the bond's energy (see ``_bond_eval``).
+Forces and torques are the exact gradient of the bond's energy (see ``_law``).
 
 For small rotations the shear spring at the midpoint plus the bending spring on the relative
 rotation give exactly the Euler-Bernoulli beam element's stiffness matrix (the midpoint shear
