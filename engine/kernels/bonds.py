@@ -70,8 +70,11 @@ NODE_CHUNK = 512     # nodes per parallel task of ``bond_node_forces``
 
 
 BLOCK = 128          # nodes (bond_node_forces) or bonds (bond_forces) per block
-_ST = BLOCK + 8      # scratch row length: a block's bonds, its nodes' next bonds and the
-                     # first node's previous one
+_ST = 2 * BLOCK + 8  # scratch row length: a block's bonds, its nodes' next bonds and the
+                     # previous bonds that are not among them (on a bristle's chain, the
+                     # first node's alone); not a power of two, or the rows' same entries
+                     # fall into one cache set and evict each other (2 * BLOCK doubled the
+                     # damped bonds' cost)
 
 # scratch rows (each _ST long): gathered inputs ...
 _QIW, _QIX, _QIY, _QIZ, _QJW, _QJX, _QJY, _QJZ = 0, 1, 2, 3, 4, 5, 6, 7
@@ -134,8 +137,7 @@ def _bond_block(b0, b1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
         btj[b, 0] = W[_TJX * _ST + k]
         btj[b, 1] = W[_TJY * _ST + k]
         btj[b, 2] = W[_TJZ * _ST + k]
-    _write_energies(W, lst, 0, m, benergy, bdiss, bbend, damped and want_energy,
-                    want_energy)
+    _write_energies(W, lst, m, benergy, bdiss, bbend, damped and want_energy, want_energy)
 
 
 @njit(cache=True, parallel=True)
@@ -145,8 +147,9 @@ def bond_node_forces(nd, bn, damped, want_diss, want_energy, dt):
 
     Nodes are taken in chunks, and a chunk in blocks of ``BLOCK`` nodes; within a block each
     bond is evaluated once, as the next bond of its node i, and its action on node j is
-    carried to j (the node after i on the bristle). A block's first node re-evaluates its
-    previous bond (nothing is shared between chunks, so chunks run in parallel race-free).
+    carried to j where j is in the block; a previous bond found nowhere else in the block
+    (the block's first node's) is evaluated again (nothing is shared between chunks, so
+    chunks run in parallel race-free).
     The sums are taken in the same order as a per-node gather of ``bond_forces``' per-bond
     actions, so the result equals it exactly. This is the first force stage of a step: it
     overwrites ``f`` and ``t``. The dissipation (written when ``want_diss``: every step of a
@@ -177,22 +180,31 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
     """Nodes n0 .. n1 - 1 of :func:`bond_node_forces`, block by block."""
     W = np.empty(_ROWS * _ST)
     lst = np.empty(_ST, np.int64)
-    slot = np.empty(BLOCK, np.int64)
+    nslot = np.empty(BLOCK, np.int64)
+    pslot = np.empty(BLOCK, np.int64)
     for a in range(n0, n1, BLOCK):
         a1 = min(n1, a + BLOCK)
-        # the block's bonds: its first node's previous bond (slot 0, evaluated again), then
-        # each node's next bond; slot[k] is node k's next bond's place
+        # the block's bonds: each node's next bond (slots 0 .. own - 1, in node order), then
+        # any node's previous bond that is not the node before's next bond (the block's
+        # first node's, evaluated again: nothing is shared between blocks)
         m = 0
-        first = 0
-        if bond_prev[a] >= 0:
-            lst[0] = bond_prev[a]
-            m = 1
-            first = 1
         for k in range(a, a1):
-            slot[k - a] = m
+            nslot[k - a] = -1
             if bond_next[k] >= 0:
+                nslot[k - a] = m
                 lst[m] = bond_next[k]
                 m += 1
+        own = m
+        for k in range(a, a1):
+            pslot[k - a] = -1
+            bp = bond_prev[k]
+            if bp >= 0:
+                if k > a and bond_next[k - 1] == bp:
+                    pslot[k - a] = nslot[k - a - 1]
+                else:
+                    pslot[k - a] = m
+                    lst[m] = bp
+                    m += 1
         _evaluate(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb, ct,
                   damped, want_energy, dt)
         for k in range(a, a1):
@@ -202,16 +214,16 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
             tx = 0.0
             ty = 0.0
             tz = 0.0
-            if bond_next[k] >= 0:
-                s = slot[k - a]
+            s = nslot[k - a]
+            if s >= 0:
                 fx += W[_FX * _ST + s]
                 fy += W[_FY * _ST + s]
                 fz += W[_FZ * _ST + s]
                 tx += W[_TIX * _ST + s]
                 ty += W[_TIY * _ST + s]
                 tz += W[_TIZ * _ST + s]
-            if bond_prev[k] >= 0:
-                s = 0 if k == a else slot[k - a - 1]
+            s = pslot[k - a]
+            if s >= 0:
                 fx -= W[_FX * _ST + s]
                 fy -= W[_FY * _ST + s]
                 fz -= W[_FZ * _ST + s]
@@ -224,8 +236,8 @@ def _bond_chunk(n0, n1, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb,
             t[k, 0] = tx
             t[k, 1] = ty
             t[k, 2] = tz
-        # energies of the block's next bonds only (slot 0 is the previous block's)
-        _write_energies(W, lst, first, m, benergy, bdiss, bbend, damped and want_diss,
+        # energies of the next bonds only (a previous bond's are its own node's to write)
+        _write_energies(W, lst, own, benergy, bdiss, bbend, damped and want_diss,
                         want_energy)
 
 
@@ -243,8 +255,10 @@ def _evaluate(W, lst, m, x, v, q, w, bi, bj, kn, ks, kb, ksb, kt, L0, cn, cs, cb
 
 
 @njit(cache=True)
-def _write_energies(W, lst, s0, m, benergy, bdiss, bbend, want_diss, want_energy):
-    for s in range(s0, m):
+def _write_energies(W, lst, m, benergy, bdiss, bbend, want_diss, want_energy):
+    """The dissipation, energies and bending moments of the bonds ``lst[:m]`` from ``W``
+    into the bonds' arrays, those asked for."""
+    for s in range(m):
         b = lst[s]
         if want_diss:
             bdiss[b] = W[_DISS * _ST + s]

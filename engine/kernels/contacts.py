@@ -64,8 +64,9 @@ def build_pair_list(mid, bound, seg_bristle, skin, out_a, out_b, x, bi, bj, seg_
     a cell list over the segments' midpoints, its cells as long along each axis as the
     segments' boxes are; their bounding spheres, then their axes' boxes prefilter. No point
     of a segment moves further than its farthest node, so the list stays complete while
-    every node has moved less than skin / 2. Returns the number of pairs; if it exceeds the capacity of ``out_a`` nothing
-    past the capacity is written and the caller must grow and retry."""
+    every node has moved less than skin / 2. Returns the number of pairs; if it exceeds the
+    capacity of ``out_a`` nothing past the capacity is written and the caller must grow
+    and retry."""
     ns = mid.shape[0]
     if ns == 0:
         return 0

@@ -4,7 +4,8 @@ candidates (``BodyList``) the narrow phases look at, in the manner of JAX-MD's n
 A list is built from the positions of one moment, which it keeps (``Nodes.x_build``,
 ``Bodies.pos_build``/``q_build``), with every entry closer than the skin; it stays valid
 while no node or body has moved more than half the skin since (:func:`lists_stale`, from
-:func:`predicted_displacement`), and is rebuilt then (:func:`rebuild_lists`), the contact
+:func:`predicted_displacement`; the step loop takes its nodes' part in its second half kick,
+``stepper.nodes_kick_watch``), and is rebuilt then (:func:`rebuild_lists`), the contact
 history of the entries that survive carried over (:func:`carry_history`). Its capacity is
 fixed: a rebuild that finds more entries than fit changes nothing and returns an overflow
 code (``engine.state.OVERFLOW_PAIRS``/``OVERFLOW_BODY``, the count needed in ``n[1]``), on
