@@ -28,11 +28,13 @@ from engine.state import tangential_ratio
 # numpy, scipy, h5py and the loaded kernels, plus ~1.2 KB per node for the build (state,
 # bonds, the build's bounded checks) and the run; 2 KB per node leaves room for contact
 # lists that grow in deep contact and the recorder's buffers. A first run that compiles
-# the stepping kernels peaked at 626 MB for 80,000 nodes (400 MB above the same run with a
-# warm cache): the fixed part covers that compile too
+# the kernels (an empty numba cache: a fresh installation) holds LLVM's memory on top of
+# the built arrays: for 80,000 nodes it peaked at 1.11 GB against 0.41 GB with the cache
+# warm (51ae462, the bonds' SIMD blocks among the kernels; 626 MB before them), so the
+# fixed part covers that compile (1.23 GB estimated there)
 BYTES_PER_NODE = 2_000
 BYTES_PER_TRIANGLE = 400   # vertices, normals, pseudo-normals and the triangle grid
-BYTES_FIXED = 768 * 2**20  # the interpreter, the libraries, the kernels (compiled or loaded)
+BYTES_FIXED = 1024 * 2**20  # the interpreter, the libraries, the kernels (compiled or loaded)
 # recorded bytes per node and frame of each per-node channel, as docs/results.md lays them
 # out: nodes/positions (N, 3) f8; nodes/velocities and angular_velocities (N, 3) f8 each;
 # bonds/bending_moment one f4 per bond (fewer bonds than nodes). The other channels
