@@ -21,6 +21,14 @@ temporary folder, after a warm-up run that fills the numba cache and is not coun
   import and the figure), and the rest (interpreter, CLI and study imports, the Python
   between the step calls, the CSV/HDF5 outputs, the exit).
 
+Also the *floor*: the CPU seconds of a child that does only what any such process must,
+``_FLOOR``: the interpreter, numba's import, one call of a one-line ``cache=True`` kernel
+loaded from the cache (numba's set-up of its CPU target, which every first call or cache
+load makes), and one small line plot saved as a PNG through matplotlib's object API (as
+``studio.studies.plots`` draws). Issue 26 asks for the wedge in <= 2.6 CPU-s with a share
+below 20 %, that is <= 0.52 CPU-s outside the step loop: the floor says whether that can
+be met by any process that steps with numba and draws its curve with matplotlib.
+
 The child is ``python -c <_CHILD> TALLY ARGS``: ``studio.cli.main.main()`` with ``sys.argv``
 set to ARGS and the wrapper installed first, the same as ``python -m studio.cli ARGS``
 otherwise.
@@ -98,6 +106,40 @@ with open(tally_path, "w") as f:
 sys.exit(code)
 """
 
+_FLOOR_KERNEL = """from numba import njit
+
+
+@njit(cache=True)
+def one(x):
+    return x + 1.0
+"""
+
+_FLOOR = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+import floor_kernel
+floor_kernel.one(1.0)
+from matplotlib.figure import Figure
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+fig = Figure(figsize=(7.5, 5))
+FigureCanvasAgg(fig)
+ax = fig.add_subplot()
+ax.plot([0.0, 1.0, 2.0], [0.0, 1.0, 4.0], "o-")
+fig.savefig(sys.argv[2], dpi=100)
+"""
+
+
+def floor_once(folder: str) -> float:
+    """CPU s of one ``_FLOOR`` child (the kernel's module and cache in ``folder``)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    p = subprocess.run([sys.executable, "-c", _FLOOR, folder, os.path.join(folder, "f.png")],
+                       cwd=folder, env=dict(os.environ, NUMBA_NUM_THREADS="1"),
+                       capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if p.returncode != 0:
+        sys.exit(f"floor child failed ({p.returncode}):\n{p.stderr[-3000:]}")
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
 
 def run_once(out: str, tally: str) -> tuple[float, dict]:
     """(CPU s of the child and its descendants, the child's tally); it must succeed."""
@@ -135,6 +177,10 @@ def main(argv=None) -> int:
                   f"{t.get('build', 0):.2f}, step kernel load {t['load']:.2f}, plot "
                   f"{t.get('plot', 0):.2f}, the rest (interpreter, CLI, the Python between "
                   f"steps, outputs, exit) {cpu - t['stepping'] - t['engine_import'] - t['numba_init'] - t.get('build', 0) - t['load'] - t.get('plot', 0):.2f}", flush=True)
+        floor_dir = tempfile.mkdtemp(dir=tmp)
+        Path(floor_dir, "floor_kernel.py").write_text(_FLOOR_KERNEL)
+        floor_once(floor_dir)  # compiles and caches the kernel: not counted
+        floors = [floor_once(floor_dir) for _ in range(args.repeat)]
     whole = statistics.median(r[0] for r in rows)
     step = statistics.median(r[1] for r in rows)
     share = statistics.median((r[0] - r[1]) / r[0] for r in rows)
@@ -143,6 +189,11 @@ def main(argv=None) -> int:
     print(f"median of {len(rows)}: whole {whole:.2f} CPU-s, stepping {step:.2f} CPU-s, "
           f"non-stepping share {share:.1%} (target < 20 %: "
           f"{'met' if share < 0.2 else 'MISSED'})")
+    floor = statistics.median(floors)
+    print(f"floor (interpreter, numba's import and set-up with one cached kernel, one "
+          f"matplotlib PNG): median {floor:.2f} CPU-s of {len(floors)} "
+          f"({', '.join(f'{f:.2f}' for f in floors)}); wedge20's 2.6 CPU-s with a share "
+          f"below 20 % leaves 0.52 CPU-s outside the step loop")
     return 0
 
 
