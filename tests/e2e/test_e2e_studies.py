@@ -163,9 +163,23 @@ def test_e2e_convergence_study_shows_table_and_plot(studio, page, shot):
     select(page, "study", "convergence")
     studio.wait_state(lambda s: s["studies"]["study"] == "convergence", what="convergence")
     page.wait_for_timeout(500)
+    # the form starts on the current design with no quantity (the options model has no
+    # default for it): a user picks the rod preset and types what to measure and the ladder
+    select(page, "scene", "rod_weight_static")
+    # (an earlier test of this studio may have left options in the JSON field)
+    _typed(studio, page, "other options (JSON)", "",
+           lambda s: s["studies"]["other_options"] == "", "the JSON options cleared")
+    for label, text in (("quantity", "tip_deflection"), ("ladder", "n_nodes=5,9,17")):
+        _typed(studio, page, label, text,
+               lambda s, label=label, text=text: s["studies"]["form"].get(label) == text,
+               f"the {label} typed")
+    assert studio.state()["studies"]["form"]["scene"] == "rod_weight_static"
     click(page, "Start study")
-    st = _wait_studies(studio, lambda s: s["shown_status"] is not None and s["plot"]
-                       and s["table"], 600, "the convergence table and plot")
+    # (a refusal ends the wait at once, with its reason)
+    st = _wait_studies(studio, lambda s: s["error"] is not None or (
+        s["shown_status"] is not None and s["plot"] and s["table"]), 600,
+        "the convergence table and plot")
+    assert st["error"] is None, st["error"]
     assert st["shown_status"] == "completed"
     wait_text(page, "error against wall time")  # the plot's title
     wait_text(page, "tip_deflection")

@@ -12,6 +12,9 @@ screenshot under tests/e2e/artifacts/.
 """
 from __future__ import annotations
 
+import re
+from urllib.parse import unquote
+
 import pytest
 
 from conftest import click, open_preset, run_to_playback, set_field, upload, wait_text
@@ -38,8 +41,12 @@ def test_e2e_url_opens_a_preset(studio, page, shot):
     expected = presets.load_preset(name) if name != "demo" else None
     page.goto(f"{studio.api}/studio?preset={name}")  # the landing route redirects
     page.get_by_label("rows", exact=True).wait_for(timeout=30_000)
-    # the page's URL names the design its own session opened on (a link to it)
-    assert page.url.startswith(studio.url) and f"preset/{name}" in page.url
+    # the page's URL names the design its own session opened on (a link to it): the preset,
+    # or, once the session keeps its design in a draft (issue 29 item 7), that draft, which
+    # a reload reopens
+    assert page.url.startswith(studio.url)
+    assert re.search(rf"(preset/{name}|draft/[0-9a-f]{{16}})($|[&#])", unquote(page.url)), \
+        page.url
     st = studio.wait_state(lambda s: s["scene_name"] == (expected.name if expected else
                                                          s["scene_name"]),
                            what="the new session on the preset")

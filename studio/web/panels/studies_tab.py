@@ -807,6 +807,10 @@ class StudiesTab:
                 "plot": self.plot is not None, "table": bool(self.md_table.visible),
                 "files": list(self.dd_file.options) if self.shown else [],
                 "error": self.last_error,
+                # the shown study's form as the server holds it (what Start would submit)
+                "form": {name: h.value for name, h in
+                         self.fields.get(self.dd_study.value, {}).items()},
+                "other_options": self.tx_extra.value,
                 "variables": {p: [r["low"].value, r["high"].value, r["log"].value]
                               for p, r in self.var_rows.items()},
                 "field_choices": list(self.dd_var_field.options),
