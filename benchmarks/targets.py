@@ -48,14 +48,18 @@ t = time.process_time()
 system = engine.build(scene)
 build_cpu = time.process_time() - t
 build_peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+warm_cpu = 0.0
 if warm:
+    t = time.process_time()
     engine.run(system, until=system.time + warm * system.dt, output=out + "/warm.h5")
+    warm_cpu = time.process_time() - t
 t = time.process_time()
 res = engine.run(system, until=system.time + steps * system.dt, output=out + "/timed.h5")
 cpu = time.process_time() - t
 print(json.dumps({"n_nodes": system.n_nodes, "build_cpu": build_cpu, "build_peak": build_peak,
                   "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
                   "estimate": estimate, "node_steps_per_cpu": steps * system.n_nodes / cpu,
+                  "warm_cpu": warm_cpu,
                   "contacts": res.summary.get("contacts")}))
 """
 
@@ -166,16 +170,16 @@ def build10k() -> None:
 
 def build100k() -> None:
     # two warm-up steps, as the other cases warm up: a process's first run loads the step
-    # loop from numba's cache (0.17 CPU-s at this size, counted in the 30 steps timed from
-    # the build up to 51ae462) and evaluates the initial forces; the timed steps then step
+    # loop from numba's cache and evaluates the initial forces (the warm-up's CPU, printed
+    # beside the figure; up to 51ae462 the 30 steps timed from the build counted both)
     r = box(316, 316, 2, 50)
     cmd = ("python -c <targets._BOX> benchmarks 316 316 2 50 FRESH  (99,856 bristles x 8: "
            "build, 2 warm-up steps, 50 timed, the box on the tips)")
     line("build100k", "peak <= 6 GB (build + run)", f"{r['peak'] / 1e9:.2f} GB (build "
          f"{r['build_cpu']:.1f} CPU-s; estimate {r['estimate'] / 1e9:.2f} GB)",
          r["peak"] <= 6e9, cmd)
-    line("", ">= 10 M node-steps/CPU-s", f"{r['node_steps_per_cpu'] / 1e6:.2f} M",
-         r["node_steps_per_cpu"] >= 10e6, cmd)
+    line("", ">= 10 M node-steps/CPU-s", f"{r['node_steps_per_cpu'] / 1e6:.2f} M (the 2 "
+         f"warm-up steps: {r['warm_cpu']:.2f} CPU-s)", r["node_steps_per_cpu"] >= 10e6, cmd)
 
 
 def detumble() -> None:
