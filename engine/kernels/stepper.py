@@ -228,42 +228,30 @@ def local_damping(f, t, v, w, inv_mass, alpha, dt, want_diss):
     books its energy), else 0.0 without summing it."""
     # branch-free (sign of the velocity as a number), so the loop vectorises: the signs
     # of a relaxing brush's velocities are random, and branches on them mispredicted. The
-    # dissipation's running sum cannot be vectorised without reordering it, so a run that
-    # does not book it takes the loop without it
+    # (n, 3) arrays are taken as flat rows, which the compiler vectorises where no
+    # dissipation is summed (benchmarks/bond_kernel.py on the wedge's brush: 2.4 ns a node,
+    # 8.1 for 531fdd8's loop over the (n, 3) arrays); the running sum cannot be vectorised
+    # without reordering it, and the loop-invariant ``want_diss`` lets the compiler keep a
+    # copy of the loop without it
     diss = 0.0
-    if not want_diss:
-        # the (n, 3) arrays as flat rows, which the compiler vectorises (benchmarks/
-        # bond_kernel.py on the wedge's brush: 2.6 ns a node, 8.1 for 531fdd8's loop over
-        # the (n, 3) arrays); the same operations on the same numbers
-        F = f.reshape(f.size)
-        T = t.reshape(t.size)
-        V = v.reshape(v.size)
-        Om = w.reshape(w.size)
-        for n in range(f.shape[0]):
-            free = 1.0 if inv_mass[n] != 0.0 else 0.0
-            for a in range(3):
-                k = 3 * n + a
-                fa = F[k]
-                va = V[k]
-                ta = T[k]
-                wa = Om[k]
-                sv = free * ((va > 0.0) - (va < 0.0))
-                sw = free * ((wa > 0.0) - (wa < 0.0))
-                F[k] = fa - sv * alpha * abs(fa)
-                T[k] = ta - sw * alpha * abs(ta)
-        return diss
+    F = f.reshape(f.size)
+    T = t.reshape(t.size)
+    V = v.reshape(v.size)
+    Om = w.reshape(w.size)
     for n in range(f.shape[0]):
         free = 1.0 if inv_mass[n] != 0.0 else 0.0
         for a in range(3):
-            fa = f[n, a]
-            va = v[n, a]
-            ta = t[n, a]
-            wa = w[n, a]
+            k = 3 * n + a
+            fa = F[k]
+            va = V[k]
+            ta = T[k]
+            wa = Om[k]
             sv = free * ((va > 0.0) - (va < 0.0))
             sw = free * ((wa > 0.0) - (wa < 0.0))
-            f[n, a] = fa - sv * alpha * abs(fa)
-            t[n, a] = ta - sw * alpha * abs(ta)
-            diss += free * alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
+            F[k] = fa - sv * alpha * abs(fa)
+            T[k] = ta - sw * alpha * abs(ta)
+            if want_diss:
+                diss += free * alpha * (abs(fa) * abs(va) + abs(ta) * abs(wa)) * dt
     return diss
 
 
