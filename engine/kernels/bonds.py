@@ -43,7 +43,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .rotations import qmul, qrot, qrot_inv
+from .rotations import qlog_factor, qmul, qrot, qrot_inv
 
 
 # Below PARALLEL_MIN items a loop runs serially: no thread-pool latency. So each parallel
@@ -320,14 +320,10 @@ def _relative_rotation(W, m):
 
 @njit(cache=True)
 def _angle(W, m):
-    """phi = log(r) = fl r_vec: fl = 2 atan2(|r_vec|, r_w) / |r_vec| as in rotations.qlog
-    (2 below 1e-12, where phi = 2 r_vec); the one pass with a libm call, so scalar."""
+    """phi = log(r) = fl r_vec (``rotations.qlog_factor``); the one pass with a libm call
+    (atan2), so scalar."""
     for s in range(m):
-        vn = W[_VN * _ST + s]
-        if vn < 1e-12:
-            W[_FL * _ST + s] = 2.0
-        else:
-            W[_FL * _ST + s] = 2.0 * math.atan2(vn, W[_RW * _ST + s]) / vn
+        W[_FL * _ST + s] = qlog_factor(W[_VN * _ST + s], W[_RW * _ST + s])
 
 
 @njit(cache=True, error_model="numpy")

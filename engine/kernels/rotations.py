@@ -55,12 +55,17 @@ def qlog(w, x, y, z):
     """Rotation vector (axis * angle, angle in [0, pi]) of unit quaternion q."""
     if w < 0.0:
         w, x, y, z = -w, -x, -y, -z
-    vn = math.sqrt(x * x + y * y + z * z)
-    if vn < 1e-12:
-        return (2.0 * x, 2.0 * y, 2.0 * z)
-    angle = 2.0 * math.atan2(vn, w)
-    f = angle / vn
+    f = qlog_factor(math.sqrt(x * x + y * y + z * z), w)
     return (f * x, f * y, f * z)
+
+
+@njit(cache=True, inline="always")
+def qlog_factor(vn, w):
+    """f of log(q) = f q_vec for a unit quaternion with w >= 0 and |q_vec| = vn:
+    2 atan2(vn, w) / vn, and 2 below vn = 1e-12 (the limit, without dividing by ~0)."""
+    if vn < 1e-12:
+        return 2.0
+    return 2.0 * math.atan2(vn, w) / vn
 
 
 @njit(cache=True, inline="always")
