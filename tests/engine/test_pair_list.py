@@ -48,8 +48,9 @@ def _brush(rng, rows, cols, n_nodes, pitch, length, tilt):
 
 @pytest.mark.parametrize("kind,n_bristles,spread,step", [
     ("chains", 60, 0.03, 0.006), ("chains", 200, 0.05, 0.004), ("chains", 40, 2.0, 0.01),
-    # brushes: straight-ish (cells much longer than wide), and one bristle row bent far
-    # over (cells as wide as its tilted segments)
+    # brushes (n_bristles rows and columns, spread the pitch, step the tilt): straight-ish
+    # (cells much longer than wide), and bent far over (lateral steps up to 0.8 of a
+    # segment: cells as wide as the tilted segments)
     ("brush", 12, 0.002, 0.05), ("brush", 12, 0.002, 0.8)])
 def test_pair_list_finds_each_pair_within_the_skin_once(kind, n_bristles, spread, step):
     rng = np.random.default_rng(n_bristles + int(step * 1000))
